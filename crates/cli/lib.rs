@@ -1,0 +1,15 @@
+//! The `crestflow` binary's library side: the registry of every built-in node family, shared by
+//! the CLI, the end-to-end tests and the examples.
+
+use crestflow_flow::Registry;
+
+/// A registry with every built-in node kind.
+pub fn registry() -> Registry {
+    let mut reg = Registry::new();
+    crestflow_nodes_io::register(&mut reg);
+    crestflow_nodes_curvature::register(&mut reg);
+    crestflow_nodes_ridges::register(&mut reg);
+    crestflow_nodes_render::register(&mut reg);
+    crestflow_nodes_eval::register(&mut reg);
+    reg
+}
