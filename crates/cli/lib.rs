@@ -11,5 +11,6 @@ pub fn registry() -> Registry {
     crestflow_nodes_ridges::register(&mut reg);
     crestflow_nodes_render::register(&mut reg);
     crestflow_nodes_eval::register(&mut reg);
+    crestflow_nodes_shapes::register(&mut reg);
     reg
 }
