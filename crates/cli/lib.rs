@@ -1,7 +1,9 @@
 //! The `crestflow` binary's library side: the registry of every built-in node family, shared by
-//! the CLI, the end-to-end tests and the examples.
+//! the CLI, the end-to-end tests and the examples, and the command line itself ([`app`]).
 
 use crestflow_flow::Registry;
+
+pub mod app;
 
 /// A registry with every built-in node kind.
 pub fn registry() -> Registry {

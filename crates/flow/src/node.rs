@@ -52,7 +52,10 @@ pub struct ParamIssue {
 
 impl ParamIssue {
     pub fn new(field: impl Into<String>, message: impl Into<String>) -> Self {
-        Self { field: field.into(), message: message.into() }
+        Self {
+            field: field.into(),
+            message: message.into(),
+        }
     }
 }
 
@@ -72,7 +75,10 @@ where
     // `!(a <= b)` rather than `a > b` so that NaN is rejected too.
     #[allow(clippy::neg_cmp_op_on_partial_ord)]
     if !(lo <= value && value <= hi) {
-        issues.push(ParamIssue::new(field, format!("{value} is out of range [{lo}, {hi}]")));
+        issues.push(ParamIssue::new(
+            field,
+            format!("{value} is out of range [{lo}, {hi}]"),
+        ));
     }
 }
 
@@ -112,11 +118,21 @@ pub struct Port {
 impl Port {
     /// A required port carrying `T`.
     pub fn of<T: PortValue>(name: &'static str, doc: &'static str) -> Self {
-        Port { name, ty: port_type::<T>(), required: true, doc }
+        Port {
+            name,
+            ty: port_type::<T>(),
+            required: true,
+            doc,
+        }
     }
     /// An optional input port.
     pub fn optional<T: PortValue>(name: &'static str, doc: &'static str) -> Self {
-        Port { name, ty: port_type::<T>(), required: false, doc }
+        Port {
+            name,
+            ty: port_type::<T>(),
+            required: false,
+            doc,
+        }
     }
 }
 
@@ -210,7 +226,11 @@ pub struct NodeError {
 
 impl NodeError {
     pub fn new(kind: ErrorKind, message: impl Into<String>) -> Self {
-        NodeError { kind, message: message.into(), source: None }
+        NodeError {
+            kind,
+            message: message.into(),
+            source: None,
+        }
     }
     pub fn invalid_input(message: impl Into<String>) -> Self {
         Self::new(ErrorKind::InvalidInput, message)
@@ -232,7 +252,11 @@ impl NodeError {
         kind: ErrorKind,
         source: impl std::error::Error + Send + Sync + 'static,
     ) -> Self {
-        NodeError { kind, message: source.to_string(), source: Some(Box::new(source)) }
+        NodeError {
+            kind,
+            message: source.to_string(),
+            source: Some(Box::new(source)),
+        }
     }
 }
 
@@ -244,7 +268,9 @@ impl fmt::Display for NodeError {
 
 impl std::error::Error for NodeError {
     fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
-        self.source.as_ref().map(|e| e.as_ref() as &(dyn std::error::Error + 'static))
+        self.source
+            .as_ref()
+            .map(|e| e.as_ref() as &(dyn std::error::Error + 'static))
     }
 }
 

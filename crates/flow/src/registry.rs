@@ -23,7 +23,11 @@ pub struct PreparedParams {
 pub enum ParamError {
     /// RON did not parse or did not fit the params struct. `line`/`column` are 1-based and
     /// relative to the params text handed to [`DynNode::prepare`].
-    Parse { message: String, line: usize, column: usize },
+    Parse {
+        message: String,
+        line: usize,
+        column: usize,
+    },
     /// Parsed, but [`Validate`] found problems (ranges, consistency).
     Invalid(Vec<ParamIssue>),
 }
@@ -39,7 +43,12 @@ pub trait DynNode: Send + Sync {
     fn default_params(&self) -> String;
     /// Parses `ron_text` (a RON struct or `()`), fills defaults, validates.
     fn prepare(&self, ron_text: &str) -> Result<PreparedParams, ParamError>;
-    fn run(&self, params: &PreparedParams, inputs: &Inputs, ctx: &Ctx) -> Result<Outputs, NodeError>;
+    fn run(
+        &self,
+        params: &PreparedParams,
+        inputs: &Inputs,
+        ctx: &Ctx,
+    ) -> Result<Outputs, NodeError>;
 }
 
 struct Adapter<N: NodeKind>(std::marker::PhantomData<fn() -> N>);
@@ -71,20 +80,25 @@ impl<N: NodeKind> DynNode for Adapter<N> {
             .unwrap_or_else(|e| format!("<cannot show defaults: {e}>"))
     }
     fn prepare(&self, ron_text: &str) -> Result<PreparedParams, ParamError> {
-        let params: N::Params = ron_options().from_str(ron_text).map_err(|e| ParamError::Parse {
-            message: e.code.to_string(),
-            line: e.span.start.line,
-            column: e.span.start.col,
-        })?;
+        let params: N::Params =
+            ron_options()
+                .from_str(ron_text)
+                .map_err(|e| ParamError::Parse {
+                    message: e.code.to_string(),
+                    line: e.span.start.line,
+                    column: e.span.start.col,
+                })?;
         let issues = params.validate();
         if !issues.is_empty() {
             return Err(ParamError::Invalid(issues));
         }
-        let canonical = ron_options().to_string(&params).map_err(|e| ParamError::Parse {
-            message: format!("params cannot be serialised: {e}"),
-            line: 1,
-            column: 1,
-        })?;
+        let canonical = ron_options()
+            .to_string(&params)
+            .map_err(|e| ParamError::Parse {
+                message: format!("params cannot be serialised: {e}"),
+                line: 1,
+                column: 1,
+            })?;
         Ok(PreparedParams {
             canonical,
             input_files: N::input_files(&params),
@@ -92,11 +106,15 @@ impl<N: NodeKind> DynNode for Adapter<N> {
             value: Box::new(params),
         })
     }
-    fn run(&self, params: &PreparedParams, inputs: &Inputs, ctx: &Ctx) -> Result<Outputs, NodeError> {
-        let params = params
-            .value
-            .downcast_ref::<N::Params>()
-            .ok_or_else(|| NodeError::internal(format!("params of {} have the wrong type", N::KIND)))?;
+    fn run(
+        &self,
+        params: &PreparedParams,
+        inputs: &Inputs,
+        ctx: &Ctx,
+    ) -> Result<Outputs, NodeError> {
+        let params = params.value.downcast_ref::<N::Params>().ok_or_else(|| {
+            NodeError::internal(format!("params of {} have the wrong type", N::KIND))
+        })?;
         N::run(params, inputs, ctx)
     }
 }
@@ -114,7 +132,8 @@ impl Registry {
     /// Adds a node kind. A second kind with the same name replaces the first (so a program can
     /// override a built-in node).
     pub fn add<N: NodeKind>(&mut self) -> &mut Self {
-        self.kinds.insert(N::KIND, Box::new(Adapter::<N>(std::marker::PhantomData)));
+        self.kinds
+            .insert(N::KIND, Box::new(Adapter::<N>(std::marker::PhantomData)));
         self
     }
     pub fn get(&self, kind: &str) -> Option<&dyn DynNode> {

@@ -5,7 +5,9 @@
 
 pub mod curvature;
 pub mod fcn;
+pub mod io;
 pub mod mesh;
+pub mod shapes;
 pub mod vec3;
 
 pub use curvature::CurvatureField;

@@ -1,0 +1,602 @@
+//! `curvature.polynomial`: principal curvatures, directions and extremality coefficients from a
+//! local bivariate cubic fitted at every vertex (thesis §2.4, "Curvature from Local Bivariate
+//! Polynomial Fitting"; Yoshizawa, Belyaev, Seidel 2005, "Fast and robust detection of crest
+//! lines on meshes" [YBS05], with the adjacent-normal cubic approximation of Goldfeather and
+//! Interrante 2004 [GI04]).
+//!
+//! At vertex p with unit normal n and a tangent frame (e1, e2), every vertex q of the n-ring
+//! gives local coordinates (x, y, z) and is fitted by
+//!
+//! z(x, y) = a1 x + a2 y + ½(w0 x² + 2 w1 xy + w2 y²) + ⅙(w3 x³ + 3 w4 x²y + 3 w5 xy² + w6 y³).
+//!
+//! Each neighbour also contributes its normal (a, b, c) in the frame as two linear equations on
+//! the slopes, z_x = −a/c and z_y = −b/c (GI04), which makes the cubic terms — the curvature
+//! derivatives — well determined from small neighbourhoods. The linear terms (absent in YBS05)
+//! absorb the error of the vertex normal: the curvatures are the eigenvalues of the Weingarten
+//! map I⁻¹ II of the fitted graph at the origin, and the extremality coefficients
+//! (thesis §2.1.2, e = ∇k · t) are the third directional derivative C(t, t, t) corrected to
+//! first order for the slope s = ∇z · t (e = −C(t,t,t) + 3 k² s in this file's sign convention).
+//!
+//! Coordinates are divided by the neighbourhood's RMS distance before the least-squares solve
+//! (normal equations, Cholesky) so the system's conditioning does not depend on the mesh scale.
+//! Too few neighbours or a singular system: the ring grows (up to two more rings), then a
+//! quadric without cubic terms is fitted (extremality 0), then the vertex gets zeros; each
+//! case is counted in [`FitStats`].
+//!
+//! Vertices are independent: the loop runs with [`Par::map_collect`], so the output is the
+//! same bit for bit at any thread count.
+
+use serde::{Deserialize, Serialize};
+
+use crestflow_flow::{check_range, Ctx, NodeError, NodeKind, Outputs, Par, ParamIssue, Port, Validate};
+use crestflow_flow::{ErrorKind, Inputs};
+use crestflow_geom::vec3::{self, V3};
+use crestflow_geom::{CurvatureField, TriMesh};
+
+use crate::local::{area_weighted_normals, check_mesh, pencil_eigen2, tangent_basis, with_scratch, MeshInputError};
+use crate::orient::orient_directions;
+
+/// Parameters of `curvature.polynomial`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct PolynomialParams {
+    /// Neighbourhood of the fit: the n-ring of each vertex (default 2, range 1..=6).
+    pub rings: u32,
+    /// Total degree of the local polynomial: 3 is the YBS05 cubic; 4 adds quartic terms so
+    /// that they do not bias the curvature and its derivatives (default 4, range 3..=4).
+    pub degree: u32,
+    /// Use the neighbours' normals as extra equations (GI04 adjacent-normal cubic
+    /// approximation; default true). Without them the fit uses positions only and needs more
+    /// neighbours.
+    pub use_normals: bool,
+    /// Orient principal directions consistently across the mesh (thesis §2.5.1.1 step 2;
+    /// default true).
+    pub orient: bool,
+}
+
+impl Default for PolynomialParams {
+    fn default() -> Self {
+        PolynomialParams { rings: 2, degree: 4, use_normals: true, orient: true }
+    }
+}
+
+impl Validate for PolynomialParams {
+    fn validate(&self) -> Vec<ParamIssue> {
+        let mut issues = Vec::new();
+        check_range(&mut issues, "rings", self.rings, 1, 6);
+        check_range(&mut issues, "degree", self.degree, 3, 4);
+        issues
+    }
+}
+
+/// How many vertices needed a fallback.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct FitStats {
+    /// Fitted after growing the neighbourhood beyond `rings`.
+    pub grown: usize,
+    /// Only a lower degree could be fitted (a quadric gives extremality 0).
+    pub reduced: usize,
+    /// Nothing could be fitted (isolated vertex, no normal, degenerate neighbourhood): zeros.
+    pub failed: usize,
+}
+
+/// The result of [`polynomial_curvature`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct PolynomialCurvature {
+    pub field: CurvatureField,
+    pub stats: FitStats,
+}
+
+/// Errors of [`polynomial_curvature`].
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum PolynomialError {
+    #[error(transparent)]
+    Mesh(#[from] MeshInputError),
+    #[error("invalid parameters: {0}")]
+    Params(String),
+}
+
+/// Per-vertex result of the fit.
+#[derive(Clone, Copy, Debug)]
+struct VertexFit {
+    k_max: f64,
+    k_min: f64,
+    t_max: V3,
+    t_min: V3,
+    normal: V3,
+    e_max: f64,
+    e_min: f64,
+    status: Status,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Status {
+    Full,
+    Grown,
+    Reduced,
+    Failed,
+}
+
+impl VertexFit {
+    fn failed(normal: V3) -> Self {
+        VertexFit {
+            k_max: 0.0,
+            k_min: 0.0,
+            t_max: [0.0; 3],
+            t_min: [0.0; 3],
+            normal,
+            e_max: 0.0,
+            e_min: 0.0,
+            status: Status::Failed,
+        }
+    }
+}
+
+/// Most unknowns of a fit: 2 slopes, 3 quadratic, 4 cubic and 5 quartic coefficients.
+const MAX_NU: usize = 14;
+
+/// Unknowns of a fit of total degree `degree` (2, 3 or 4) with slopes.
+fn unknowns(degree: u32) -> usize {
+    match degree {
+        2 => 5,
+        3 => 9,
+        _ => 14,
+    }
+}
+
+/// Estimates curvature at every vertex of `mesh` by local polynomial fitting (see the module
+/// docs).
+pub fn polynomial_curvature(
+    mesh: &TriMesh,
+    params: &PolynomialParams,
+    par: Par,
+) -> Result<PolynomialCurvature, PolynomialError> {
+    let issues = params.validate();
+    if !issues.is_empty() {
+        let text: Vec<String> =
+            issues.iter().map(|i| format!("{}: {}", i.field, i.message)).collect();
+        return Err(PolynomialError::Params(text.join("; ")));
+    }
+    check_mesh(mesh)?;
+    let n = mesh.n_vertices();
+    let t0 = std::time::Instant::now();
+    let topo = mesh.topology();
+    let t1 = std::time::Instant::now();
+    let mut normals = area_weighted_normals(mesh);
+    let t2 = std::time::Instant::now();
+    if params.use_normals {
+        // Angle-weighted normals are only first-order accurate on irregular meshes, which
+        // would spoil the adjacent-normal equations: a positions-only pass refines them.
+        let first = PolynomialParams { use_normals: false, degree: 3, ..params.clone() };
+        let refined: Vec<V3> = par.map_collect(n, |v| {
+            with_scratch(|scratch| {
+                let fit = fit_vertex(v as u32, mesh, &normals, None, topo, &first, scratch);
+                if fit.status == Status::Failed || fit.status == Status::Reduced {
+                    normals[v]
+                } else {
+                    fit.normal
+                }
+            })
+        });
+        normals = refined;
+    }
+    let t3 = std::time::Instant::now();
+    let neighbour_normals = if params.use_normals { Some(normals.as_slice()) } else { None };
+    let fits: Vec<VertexFit> = par.map_collect(n, |v| {
+        with_scratch(|scratch| {
+            fit_vertex(v as u32, mesh, &normals, neighbour_normals, topo, params, scratch)
+        })
+    });
+
+    let t4 = std::time::Instant::now();
+    let mut stats = FitStats::default();
+    let mut field = CurvatureField {
+        k_max: Vec::with_capacity(n),
+        k_min: Vec::with_capacity(n),
+        t_max: Vec::with_capacity(n),
+        t_min: Vec::with_capacity(n),
+        normal: Vec::with_capacity(n),
+        e_max: Vec::with_capacity(n),
+        e_min: Vec::with_capacity(n),
+        method: "curvature.polynomial".to_string(),
+    };
+    for f in &fits {
+        match f.status {
+            Status::Full => {}
+            Status::Grown => stats.grown += 1,
+            Status::Reduced => stats.reduced += 1,
+            Status::Failed => stats.failed += 1,
+        }
+        field.k_max.push(f.k_max);
+        field.k_min.push(f.k_min);
+        field.t_max.push(f.t_max);
+        field.t_min.push(f.t_min);
+        field.normal.push(f.normal);
+        field.e_max.push(f.e_max);
+        field.e_min.push(f.e_min);
+    }
+    let t5 = std::time::Instant::now();
+    if params.orient {
+        orient_directions(mesh, &mut field);
+    }
+    let t6 = std::time::Instant::now();
+    if std::env::var("CF_TIMING").is_ok() {
+        let us = |a: std::time::Instant, b: std::time::Instant| (b - a).as_secs_f64() * 1e6 / n as f64;
+        eprintln!("topo {:.3} normals {:.3} pass1 {:.3} pass2 {:.3} collect {:.3} orient {:.3}", us(t0,t1), us(t1,t2), us(t2,t3), us(t3,t4), us(t4,t5), us(t5,t6));
+    }
+    Ok(PolynomialCurvature { field, stats })
+}
+
+/// Fewest neighbours for a fit of `nu` unknowns: about 1.5 equations per unknown.
+fn min_neighbours(nu: usize, with_normals: bool) -> usize {
+    let per = if with_normals { 3 } else { 1 };
+    (3 * nu).div_ceil(2 * per).max(2)
+}
+
+/// Fits vertex `v` with the fallbacks of the module docs. `frame_normals[v]` orients the local
+/// frame; `neighbour_normals` (if any) add the adjacent-normal equations.
+fn fit_vertex(
+    v: u32,
+    mesh: &TriMesh,
+    frame_normals: &[V3],
+    neighbour_normals: Option<&[V3]>,
+    topo: &crestflow_geom::Topology,
+    params: &PolynomialParams,
+    scratch: &mut crate::local::Scratch,
+) -> VertexFit {
+    let n0 = frame_normals[v as usize];
+    if n0 == [0.0; 3] {
+        return VertexFit::failed(n0);
+    }
+    let mut outer = scratch.start(topo, mesh.n_vertices(), v);
+    for _ in 1..params.rings {
+        outer = scratch.grow(topo, outer);
+    }
+    let max_rings = params.rings + 2;
+    let mut rings = params.rings;
+    let nu = unknowns(params.degree);
+    let with_normals = neighbour_normals.is_some();
+    loop {
+        if scratch.ring.len() >= min_neighbours(nu, with_normals) {
+            if let Some(mut fit) =
+                solve_local(v, mesh, n0, neighbour_normals, &scratch.ring, params.degree)
+            {
+                if rings > params.rings {
+                    fit.status = Status::Grown;
+                }
+                return fit;
+            }
+        }
+        if rings >= max_rings {
+            break;
+        }
+        let before = scratch.ring.len();
+        outer = scratch.grow(topo, outer);
+        rings += 1;
+        if scratch.ring.len() == before {
+            // The component has no more vertices: growing further cannot help.
+            break;
+        }
+    }
+    // Lower degrees on the largest neighbourhood gathered.
+    for degree in (2..params.degree).rev() {
+        if scratch.ring.len() >= min_neighbours(unknowns(degree), with_normals) {
+            if let Some(mut fit) = solve_local(v, mesh, n0, neighbour_normals, &scratch.ring, degree)
+            {
+                fit.status = Status::Reduced;
+                return fit;
+            }
+        }
+    }
+    VertexFit::failed(n0)
+}
+
+/// The unknowns [a1, a2, w0, w1, w2, w3, w4, w5, w6, q0, q1, q2, q3, q4] as monomials
+/// c x^a y^b of the height function
+/// z = a1 x + a2 y + ½(w0 x² + 2 w1 xy + w2 y²) + ⅙(w3 x³ + 3 w4 x²y + 3 w5 xy² + w6 y³)
+///   + (1/24)(q0 x⁴ + 4 q1 x³y + 6 q2 x²y² + 4 q3 xy³ + q4 y⁴): (a, b, c).
+const MONOMIALS: [(usize, usize, f64); MAX_NU] = [
+    (1, 0, 1.0),
+    (0, 1, 1.0),
+    (2, 0, 0.5),
+    (1, 1, 1.0),
+    (0, 2, 0.5),
+    (3, 0, 1.0 / 6.0),
+    (2, 1, 0.5),
+    (1, 2, 0.5),
+    (0, 3, 1.0 / 6.0),
+    (4, 0, 1.0 / 24.0),
+    (3, 1, 1.0 / 6.0),
+    (2, 2, 0.25),
+    (1, 3, 1.0 / 6.0),
+    (0, 4, 1.0 / 24.0),
+];
+
+/// Least-squares fit of degree `degree` in the frame of vertex `v` (normal `n`); `None` when
+/// the system is (nearly) singular.
+fn solve_local(
+    v: u32,
+    mesh: &TriMesh,
+    n: V3,
+    neighbour_normals: Option<&[V3]>,
+    ring: &[u32],
+    degree: u32,
+) -> Option<VertexFit> {
+    // One copy per degree, so that the loop bounds below are constants.
+    match degree {
+        2 => solve_local_deg::<2>(v, mesh, n, neighbour_normals, ring),
+        3 => solve_local_deg::<3>(v, mesh, n, neighbour_normals, ring),
+        _ => solve_local_deg::<4>(v, mesh, n, neighbour_normals, ring),
+    }
+}
+
+fn solve_local_deg<const D: usize>(
+    v: u32,
+    mesh: &TriMesh,
+    n: V3,
+    neighbour_normals: Option<&[V3]>,
+    ring: &[u32],
+) -> Option<VertexFit> {
+    let degree = D as u32;
+    let nu = unknowns(degree);
+    let p = mesh.positions[v as usize];
+    let (e1, e2) = tangent_basis(n);
+
+    // Scale: root mean square distance to the neighbours.
+    let mut h2 = 0.0;
+    for &w in ring {
+        let d = vec3::sub(mesh.positions[w as usize], p);
+        h2 += vec3::dot(d, d);
+    }
+    let h = (h2 / ring.len() as f64).sqrt();
+    if !(h > 0.0 && h.is_finite()) {
+        return None;
+    }
+    let inv_h = 1.0 / h;
+
+    // Normal equations AᵀA u = Aᵀb. Every entry of AᵀA is a sum over neighbours of a product
+    // of two monomials x^a y^b, so it is assembled from the moments Σ x^a y^b (a + b up to
+    // twice the degree) instead of row by row: about 3× fewer operations per neighbour.
+    let d = D;
+    let (m2, m_slope) = (2 * D, 2 * D - 2);
+    let mut s = [[0.0f64; 9]; 9]; // Σ x^a y^b over all neighbours
+    let mut u_bad = [[0.0f64; 9]; 9]; // the same over neighbours without a usable normal
+    let mut zm = [[0.0f64; 5]; 5]; // Σ z x^a y^b
+    let mut pm = [[0.0f64; 4]; 4]; // Σ z_x x^a y^b (slopes from neighbour normals)
+    let mut qm = [[0.0f64; 4]; 4]; // Σ z_y x^a y^b
+    let mut n_rows = 0usize;
+    let mut n_bad = 0usize;
+    let mut xp = [1.0f64; 9];
+    let mut yp = [1.0f64; 9];
+    for &w in ring {
+        let dv = vec3::scale(vec3::sub(mesh.positions[w as usize], p), inv_h);
+        let (x, y, z) = (vec3::dot(dv, e1), vec3::dot(dv, e2), vec3::dot(dv, n));
+        for k in 1..=m2 {
+            xp[k] = xp[k - 1] * x;
+            yp[k] = yp[k - 1] * y;
+        }
+        for a in 0..=m2 {
+            let xa = xp[a];
+            for b in 0..=m2 - a {
+                s[a][b] += xa * yp[b];
+            }
+        }
+        for a in 0..=d {
+            let zx = z * xp[a];
+            for b in 0..=d - a {
+                zm[a][b] += zx * yp[b];
+            }
+        }
+        n_rows += 1;
+        if let Some(normals) = neighbour_normals {
+            let nw = normals[w as usize];
+            let (a_, b_, c_) = (vec3::dot(nw, e1), vec3::dot(nw, e2), vec3::dot(nw, n));
+            // A neighbour normal tilted by more than ~70° says nothing reliable about slopes.
+            if c_ > 0.34 {
+                let (gx, gy) = (-a_ / c_, -b_ / c_);
+                for a in 0..d {
+                    for b in 0..d - a {
+                        let m = xp[a] * yp[b];
+                        pm[a][b] += gx * m;
+                        qm[a][b] += gy * m;
+                    }
+                }
+                n_rows += 2;
+            } else {
+                n_bad += 1;
+                for a in 0..=m_slope {
+                    for b in 0..=m_slope - a {
+                        u_bad[a][b] += xp[a] * yp[b];
+                    }
+                }
+            }
+        }
+    }
+    if n_rows < nu {
+        return None;
+    }
+    let with_normals = neighbour_normals.is_some();
+    // Moments over the neighbours whose normals gave slope equations.
+    let t = |a: usize, b: usize| if n_bad == 0 { s[a][b] } else { s[a][b] - u_bad[a][b] };
+    let mut ata = [[0.0f64; MAX_NU]; MAX_NU];
+    let mut atb = [0.0f64; MAX_NU];
+    for i in 0..nu {
+        let (ai, bi, ci) = MONOMIALS[i];
+        for j in i..nu {
+            let (aj, bj, cj) = MONOMIALS[j];
+            // Heights: m_i m_j; slopes: ∂x m_i ∂x m_j + ∂y m_i ∂y m_j.
+            let mut v = s[ai + aj][bi + bj];
+            if with_normals {
+                if ai > 0 && aj > 0 {
+                    v += (ai * aj) as f64 * t(ai + aj - 2, bi + bj);
+                }
+                if bi > 0 && bj > 0 {
+                    v += (bi * bj) as f64 * t(ai + aj, bi + bj - 2);
+                }
+            }
+            ata[i][j] = ci * cj * v;
+        }
+        let mut r = zm[ai][bi];
+        if with_normals {
+            if ai > 0 {
+                r += ai as f64 * pm[ai - 1][bi];
+            }
+            if bi > 0 {
+                r += bi as f64 * qm[ai][bi - 1];
+            }
+        }
+        atb[i] = ci * r;
+    }
+    let u = match D {
+        2 => cholesky_solve::<5>(&mut ata, &mut atb)?,
+        3 => cholesky_solve::<9>(&mut ata, &mut atb)?,
+        _ => cholesky_solve::<14>(&mut ata, &mut atb)?,
+    };
+
+    // Back to mesh units: slopes unchanged, quadratic / h, cubic / h².
+    let (a1, a2) = (u[0], u[1]);
+    let q = [u[2] * inv_h, u[3] * inv_h, u[4] * inv_h];
+    let c = if degree >= 3 {
+        let s = inv_h * inv_h;
+        [u[5] * s, u[6] * s, u[7] * s, u[8] * s]
+    } else {
+        [0.0; 4]
+    };
+
+    // Curvature is positive where the surface bends away from the normal, i.e. the second
+    // fundamental form of −z: II = −Hess z / √(1 + |∇z|²), I = Id + ∇z ∇zᵀ.
+    let g2 = 1.0 + a1 * a1 + a2 * a2;
+    let inv_w = 1.0 / g2.sqrt();
+    let ii = [-q[0] * inv_w, -q[1] * inv_w, -q[2] * inv_w];
+    let first = [1.0 + a1 * a1, a1 * a2, 1.0 + a2 * a2];
+    let (k_max, v_max, k_min, v_min) = pencil_eigen2(ii, first);
+    if !(k_max.is_finite() && k_min.is_finite()) {
+        return None;
+    }
+    // Third directional derivative of z along (unit-length) v, and the slope along v.
+    let cubic = |v: [f64; 2]| {
+        let (x, y) = (v[0], v[1]);
+        c[0] * x * x * x + 3.0 * c[1] * x * x * y + 3.0 * c[2] * x * y * y + c[3] * y * y * y
+    };
+    let slope = |v: [f64; 2]| a1 * v[0] + a2 * v[1];
+    let e_max = -cubic(v_max) + 3.0 * k_max * k_max * slope(v_max);
+    let e_min = -cubic(v_min) + 3.0 * k_min * k_min * slope(v_min);
+
+    // Lift the parameter-plane directions onto the fitted surface's tangent plane.
+    let lift = |v: [f64; 2]| {
+        vec3::normalize(vec3::add(
+            vec3::add(vec3::scale(e1, v[0]), vec3::scale(e2, v[1])),
+            vec3::scale(n, slope(v)),
+        ))
+    };
+    let normal =
+        vec3::normalize(vec3::sub(n, vec3::add(vec3::scale(e1, a1), vec3::scale(e2, a2))));
+    let t_max = lift(v_max);
+    let t_min = vec3::cross(normal, t_max);
+    // `lift(v_min)` equals `t_min` up to sign; keep the sign that matches v_min so that e_min
+    // is the derivative along the returned direction.
+    let t_min_sign = if vec3::dot(t_min, lift(v_min)) < 0.0 { -1.0 } else { 1.0 };
+    Some(VertexFit {
+        k_max,
+        k_min,
+        t_max,
+        t_min,
+        normal,
+        e_max,
+        e_min: e_min * t_min_sign,
+        status: Status::Full,
+    })
+}
+
+/// Solves the symmetric positive-definite system given by its upper triangle, in place
+/// (Cholesky). `None` when a pivot is not clearly positive (rank-deficient neighbourhood).
+fn cholesky_solve<const N: usize>(
+    a: &mut [[f64; MAX_NU]; MAX_NU],
+    b: &mut [f64; MAX_NU],
+) -> Option<[f64; MAX_NU]> {
+    let n = N;
+    let mut max_diag = 0.0f64;
+    for (i, row) in a.iter().enumerate().take(n) {
+        max_diag = max_diag.max(row[i]);
+    }
+    let tol = 1e-11 * max_diag;
+    // Factor A = Rᵀ R with R upper triangular, stored over A.
+    for i in 0..n {
+        let mut d = a[i][i];
+        for k in 0..i {
+            d -= a[k][i] * a[k][i];
+        }
+        if !(d > tol) {
+            return None;
+        }
+        let r = d.sqrt();
+        a[i][i] = r;
+        let inv = 1.0 / r;
+        for j in i + 1..n {
+            let mut s = a[i][j];
+            for k in 0..i {
+                s -= a[k][i] * a[k][j];
+            }
+            a[i][j] = s * inv;
+        }
+    }
+    // Rᵀ y = b
+    for i in 0..n {
+        let mut s = b[i];
+        for k in 0..i {
+            s -= a[k][i] * b[k];
+        }
+        b[i] = s / a[i][i];
+    }
+    // R x = y
+    for i in (0..n).rev() {
+        let mut s = b[i];
+        for k in i + 1..n {
+            s -= a[i][k] * b[k];
+        }
+        b[i] = s / a[i][i];
+    }
+    Some(*b)
+}
+
+/// The `curvature.polynomial` node.
+pub struct PolynomialNode;
+
+impl NodeKind for PolynomialNode {
+    type Params = PolynomialParams;
+    const KIND: &'static str = "curvature.polynomial";
+    const VERSION: u32 = 1;
+    const DOC: &'static str = "Principal curvatures, directions and extremality coefficients \
+        by fitting a bivariate cubic to each vertex's n-ring, positions and neighbour normals \
+        (thesis §2.4; Yoshizawa, Belyaev, Seidel 2005 with the adjacent-normal cubic \
+        approximation of Goldfeather and Interrante 2004). Directions are oriented \
+        consistently (§2.5.1.1 step 2). Vertices with too few neighbours grow their ring, \
+        then fall back to a quadric, then to zeros (counted in a warning).";
+
+    fn inputs() -> Vec<Port> {
+        vec![Port::of::<TriMesh>("mesh", "the triangle mesh")]
+    }
+    fn outputs() -> Vec<Port> {
+        vec![Port::of::<CurvatureField>(
+            "field",
+            "k_max, k_min, t_max, t_min, normal, e_max, e_min per vertex",
+        )]
+    }
+    fn run(params: &Self::Params, inputs: &Inputs, ctx: &Ctx) -> Result<Outputs, NodeError> {
+        let mesh = inputs.get::<TriMesh>("mesh")?;
+        ctx.check_cancelled()?;
+        let out = polynomial_curvature(mesh, params, ctx.par).map_err(|e| match e {
+            PolynomialError::Mesh(m) => NodeError::from_source(ErrorKind::InvalidInput, m),
+            other => NodeError::from_source(ErrorKind::InvalidInput, other),
+        })?;
+        let s = out.stats;
+        if s.grown + s.reduced + s.failed > 0 {
+            ctx.warn(&format!(
+                "{} vertices needed a larger neighbourhood, {} only got a lower-degree fit, \
+                 {} could not be fitted (set to zero)",
+                s.grown, s.reduced, s.failed
+            ));
+        }
+        Ok(Outputs::new().with("field", out.field))
+    }
+}
