@@ -191,36 +191,42 @@ fn a_corrupt_cache_entry_is_a_warned_miss() {
     assert_eq!(with_status(&ev, Status::Ran), Vec::<String>::new());
 }
 
+const VECTORS: &str = r#"Graph(nodes: {
+    "c":  (kind: "toy.const", params: (value: 0.25)),
+    "a":  (kind: "toy.sum_vec", params: (n: 100), inputs: { "x": "c.value" }),
+    "vs": (kind: "toy.vec_sum", params: (scale: 1.0), inputs: { "v": "a.terms" }),
+})"#;
+
 #[test]
 fn a_corrupt_blob_is_recomputed_when_needed() {
     let reg = toy_registry();
     let dir = tempdir();
     let cache = dir.path().join(".crestflow/cache");
-    let g = write(dir.path(), "g.ron", CHAIN);
+    let g = write(dir.path(), "g.ron", VECTORS);
     let (s1, _) = run_file(&g, &reg, opts());
-    let d = s1.digest("k", "value").unwrap().to_string();
-    // Same length, different bytes: decodes fine, but no longer matches its digest.
+    let sum1 = value(&s1, "vs", "sum");
+    // 100 f64 terms: too big to be kept inside the entry, so they are a blob file.
+    let d = s1.digest("a", "terms").unwrap().to_string();
     let mut bytes = std::fs::read(blob_path(&cache, &d)).unwrap();
-    bytes[0] ^= 0x55;
+    assert_eq!(bytes.len(), 801);
+    // Same length, different bytes: decodes fine, but no longer matches its digest.
+    bytes[100] ^= 0x55;
     std::fs::write(blob_path(&cache, &d), bytes).unwrap();
-    // Editing `t` makes it run, so it needs `k`'s cached value.
+    // Editing `vs` makes it run, so it needs `a`'s cached value.
     write(
         dir.path(),
         "g.ron",
-        &CHAIN.replace(
-            r#""t":   (kind: "toy.add","#,
-            r#""t":   (kind: "toy.add", params: (offset: 10.0),"#,
-        ),
+        &VECTORS.replace("scale: 1.0", "scale: 2.0"),
     );
     let (s2, ev) = run_file(&g, &reg, opts());
-    assert_eq!(with_status(&ev, Status::Ran), names(&["t", "rep"]));
+    assert_eq!(with_status(&ev, Status::Ran), names(&["vs"]));
     let w = warnings(&ev);
     assert!(
         w.iter()
-            .any(|m| m.contains("is corrupt") && m.contains("recomputing `k`")),
+            .any(|m| m.contains("is corrupt") && m.contains("recomputing `a`")),
         "{w:?}"
     );
-    assert_eq!(value(&s2, "t", "sum"), 16.0);
+    assert_eq!(value(&s2, "vs", "sum"), 2.0 * sum1);
     // The blob was repaired.
     assert_eq!(
         blake3::hash(&std::fs::read(blob_path(&cache, &d)).unwrap())
@@ -346,6 +352,10 @@ fn cancel_leaves_a_valid_cache() {
     let (s, ev) = run_file(&fast, &reg, opts());
     assert_eq!(with_status(&ev, Status::Cached), names(&["c", "fast"]));
     assert_eq!(with_status(&ev, Status::Ran), names(&["slow", "after"]));
+    assert_eq!(
+        s.node("after").unwrap().reason,
+        "it did not run in the last run (skipped: the run was cancelled)"
+    );
     assert_eq!(value(&s, "after", "value"), 3.0);
 }
 
@@ -477,25 +487,70 @@ fn cache_gc_keeps_what_the_last_run_uses() {
 fn a_failed_cache_write_fails_the_node_loudly() {
     let reg = toy_registry();
     let dir = tempdir();
+    write(dir.path(), "in.txt", &"x".repeat(1000));
     let g = write(
         dir.path(),
         "g.ron",
         r#"Graph(nodes: {
-    "c": (kind: "toy.const", params: (value: 1.0)),
-    "r": (kind: "toy.round", inputs: { "x": "c.value" }),
+    "read": (kind: "toy.read_file", params: (path: "in.txt")),
+    "r": (kind: "toy.round", inputs: { "x": "read.len" }),
 })"#,
     );
-    // The blob of 1.0 (postcard: 8 little-endian bytes) would go to blobs/<2 hex digits>/:
-    // a file in the way of that folder makes the write fail.
-    let digest = blake3::hash(&1.0f64.to_le_bytes()).to_hex().to_string();
+    // The blob of the 1000 bytes (postcard: varint length 0xE8 0x07, then the bytes) would go
+    // to blobs/<2 hex digits>/: a file in the way of that folder makes the write fail.
+    let mut encoded = vec![0xE8, 0x07];
+    encoded.extend(std::iter::repeat_n(b'x', 1000));
+    let digest = blake3::hash(&encoded).to_hex().to_string();
     let blobs = dir.path().join(".crestflow/cache/blobs");
     std::fs::create_dir_all(&blobs).unwrap();
     std::fs::write(blobs.join(&digest[..2]), b"in the way").unwrap();
     let (s, ev) = run_file(&g, &reg, opts());
     assert!(!s.ok());
-    assert_eq!(with_status(&ev, Status::Failed), names(&["c"]));
+    assert_eq!(with_status(&ev, Status::Failed), names(&["read"]));
     assert_eq!(with_status(&ev, Status::Skipped), names(&["r"]));
-    let (kind, msg) = s.node("c").unwrap().error.clone().unwrap();
+    let (kind, msg) = s.node("read").unwrap().error.clone().unwrap();
     assert_eq!(kind, ErrorKind::Internal);
     assert!(msg.starts_with("cannot write to the cache folder"), "{msg}");
+    assert_eq!(s.cache_error.as_deref(), Some(msg.as_str()));
+    // Once the obstacle is gone the same graph runs and caches.
+    std::fs::remove_file(blobs.join(&digest[..2])).unwrap();
+    let (s, _) = run_file(&g, &reg, opts());
+    assert!(s.ok());
+    assert_eq!(s.digest("read", "bytes"), Some(digest.as_str()));
+}
+
+/// `toy.const` at version 2 (same output), to show that a version bump reruns the node.
+struct ConstV2;
+impl crestflow_flow::NodeKind for ConstV2 {
+    type Params = ConstParams;
+    const KIND: &'static str = "toy.const";
+    const VERSION: u32 = 2;
+    const DOC: &'static str = "A constant number, version 2.";
+    fn inputs() -> Vec<crestflow_flow::Port> {
+        Const::inputs()
+    }
+    fn outputs() -> Vec<crestflow_flow::Port> {
+        Const::outputs()
+    }
+    fn run(
+        p: &ConstParams,
+        i: &crestflow_flow::Inputs,
+        c: &crestflow_flow::Ctx,
+    ) -> Result<crestflow_flow::Outputs, crestflow_flow::NodeError> {
+        Const::run(p, i, c)
+    }
+}
+
+#[test]
+fn a_version_bump_reruns_the_node_and_says_so() {
+    let dir = tempdir();
+    let g = write(dir.path(), "g.ron", CHAIN);
+    run_file(&g, &toy_registry(), opts());
+    let mut reg = toy_registry();
+    reg.add::<ConstV2>();
+    let (s, ev) = run_file(&g, &reg, opts());
+    // Both constants rerun; their values are unchanged, so everything downstream stays cached.
+    assert_eq!(with_status(&ev, Status::Ran), names(&["c", "k"]));
+    assert_eq!(s.node("c").unwrap().reason, "version changed: 1 -> 2");
+    assert_eq!(with_status(&ev, Status::Cached).len(), 4);
 }

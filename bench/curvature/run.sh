@@ -12,10 +12,11 @@ set -euo pipefail
 
 PYTHON=${PYTHON:-python3}
 OUT=${OUT:-target/bench-curvature}
-BUNNY=../shared/data/meshes/organic/cgal_bunny00.off
+BUNNY=$(realpath ../shared/data/meshes/organic/cgal_bunny00.off)
 TORUS_N=${TORUS_N:-115000}
 ACC_N=${ACC_N:-80000}
 mkdir -p "$OUT"
+OUT=$(realpath "$OUT")  # cargo bench runs in the crate folder: pass absolute paths
 TORUS="$OUT/torus_irregular_${TORUS_N}.off"
 ACC_TORUS="$OUT/torus_irregular_${ACC_N}.off"
 
@@ -28,11 +29,11 @@ bench --make-torus "$ACC_TORUS" "$ACC_N"
 bench "$BUNNY" "$TORUS" | tee -a "$OUT/results.jsonl"
 bench --accuracy "$ACC_N" | tee -a "$OUT/results.jsonl"
 for threads in 1 2; do
-    OMP_NUM_THREADS=$threads taskset -c "0-$((threads - 1))" \
+    OMP_NUM_THREADS=$threads IGL_NUM_THREADS=$threads taskset -c "0-$((threads - 1))" \
         "$PYTHON" bench/curvature/peer_igl.py "$BUNNY" "$TORUS" \
         | sed "s/^{/{\"threads\": $threads, /" | tee -a "$OUT/results.jsonl"
 done
-OMP_NUM_THREADS=1 "$PYTHON" bench/curvature/peer_igl.py "$ACC_TORUS" --torus 1.0 0.35 \
+OMP_NUM_THREADS=1 IGL_NUM_THREADS=1 "$PYTHON" bench/curvature/peer_igl.py "$ACC_TORUS" --torus 1.0 0.35 \
     | sed 's/^{/{"threads": 1, "accuracy": "igl.principal_curvature", /' | tee -a "$OUT/results.jsonl"
 
 "$PYTHON" - "$OUT/results.jsonl" <<'PY'

@@ -84,6 +84,8 @@ pub enum Command {
         graph: PathBuf,
         #[arg(long, value_enum, default_value_t = GraphFormat::Dot)]
         format: GraphFormat,
+        #[arg(long = "set", value_name = "NAME=VALUE")]
+        set: Vec<String>,
     },
     /// Why a node ran or was cached in the last run of a graph.
     Why {
@@ -163,7 +165,7 @@ pub fn execute(cli: Cli, registry: &Registry) -> i32 {
             }
             Err(code) => code,
         },
-        Command::Graph { graph, format } => match load(registry, &graph, &[]) {
+        Command::Graph { graph, format, set } => match load(registry, &graph, &set) {
             Ok(plan) => {
                 match format {
                     GraphFormat::Dot => print!("{}", plan.to_dot()),
@@ -738,6 +740,9 @@ impl Renderer {
                     if skipped == 1 { " was" } else { "s were" }
                 );
             }
+        }
+        if let Some(e) = &s.cache_error {
+            let _ = writeln!(err, "\nerror: the cache could not be written: {e}");
         }
         let _ = writeln!(
             err,

@@ -135,6 +135,36 @@ impl NodeKind for SumVec {
     }
 }
 
+/// `toy.vec_sum`: `scale` × the sum of a vector, in index order.
+pub struct VecSum;
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct VecSumParams {
+    pub scale: f64,
+}
+impl Default for VecSumParams {
+    fn default() -> Self {
+        VecSumParams { scale: 1.0 }
+    }
+}
+impl Validate for VecSumParams {}
+impl NodeKind for VecSum {
+    type Params = VecSumParams;
+    const KIND: &'static str = "toy.vec_sum";
+    const VERSION: u32 = 1;
+    const DOC: &'static str = "Sums a vector.";
+    fn inputs() -> Vec<Port> {
+        vec![Port::of::<Vec<f64>>("v", "the vector")]
+    }
+    fn outputs() -> Vec<Port> {
+        vec![Port::of::<f64>("sum", "scale × sum")]
+    }
+    fn run(p: &VecSumParams, i: &Inputs, _: &Ctx) -> Result<Outputs, NodeError> {
+        let s: f64 = i.get::<Vec<f64>>("v")?.iter().sum();
+        Ok(Outputs::new().with("sum", p.scale * s))
+    }
+}
+
 /// `toy.read_file`: a text file's content.
 pub struct ReadFile;
 #[derive(Clone, Debug, Default, Serialize, Deserialize)]
@@ -298,6 +328,7 @@ pub fn toy_registry() -> Registry {
         .add::<Add>()
         .add::<Round>()
         .add::<SumVec>()
+        .add::<VecSum>()
         .add::<ReadFile>()
         .add::<WriteText>()
         .add::<Fail>()

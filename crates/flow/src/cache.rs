@@ -26,6 +26,39 @@ pub struct OutputMeta {
     pub digest: String,
     pub size: u64,
     pub ty: String,
+    /// Values of at most [`INLINE_MAX`] bytes are kept in the entry (hex) instead of a blob
+    /// file: one file per node instead of two for small outputs.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub inline: Option<String>,
+}
+
+/// The largest encoded value stored inside its entry.
+pub const INLINE_MAX: usize = 256;
+
+/// Lower-case hex of bytes.
+pub fn to_hex(bytes: &[u8]) -> String {
+    const DIGITS: &[u8; 16] = b"0123456789abcdef";
+    let mut s = String::with_capacity(bytes.len() * 2);
+    for b in bytes {
+        s.push(DIGITS[(b >> 4) as usize] as char);
+        s.push(DIGITS[(b & 15) as usize] as char);
+    }
+    s
+}
+
+/// Bytes of lower- or upper-case hex; `None` when it is not hex.
+pub fn from_hex(s: &str) -> Option<Vec<u8>> {
+    if !s.len().is_multiple_of(2) {
+        return None;
+    }
+    s.as_bytes()
+        .chunks(2)
+        .map(|c| {
+            let h = (c[0] as char).to_digit(16)?;
+            let l = (c[1] as char).to_digit(16)?;
+            Some((h * 16 + l) as u8)
+        })
+        .collect()
 }
 
 /// A cache entry: the outputs of one node key.
@@ -457,6 +490,15 @@ mod tests {
         fs::write(c.entry_path("abc"), b"{not json").unwrap();
         assert!(c.read_entry("abc").unwrap_err().contains("corrupt"));
         let _ = fs::remove_dir_all(&d);
+    }
+
+    #[test]
+    fn hex_round_trip() {
+        let b = [0u8, 1, 127, 128, 255];
+        assert_eq!(to_hex(&b), "00017f80ff");
+        assert_eq!(from_hex("00017F80ff").unwrap(), b);
+        assert_eq!(from_hex("0g"), None);
+        assert_eq!(from_hex("abc"), None);
     }
 
     #[test]

@@ -158,6 +158,8 @@ pub struct Slot {
     pub ty: PortType,
     value: Mutex<Option<Value>>,
     store: Option<Arc<CacheStore>>,
+    /// The encoded value when the cache entry holds it inline.
+    inline: Option<Vec<u8>>,
 }
 
 impl std::fmt::Debug for Slot {
@@ -179,11 +181,22 @@ impl Slot {
         if let Some(v) = v.as_ref() {
             return Ok(v.clone());
         }
-        let store = self
-            .store
-            .as_ref()
-            .ok_or("the value is not in memory and there is no cache")?;
-        let bytes = store.read_blob(&self.digest)?;
+        let bytes = match &self.inline {
+            Some(b) => {
+                if blake3::hash(b).to_hex().as_str() != self.digest {
+                    return Err(format!(
+                        "the inline cached value {} is corrupt",
+                        self.digest
+                    ));
+                }
+                b.clone()
+            }
+            None => self
+                .store
+                .as_ref()
+                .ok_or("the value is not in memory and there is no cache")?
+                .read_blob(&self.digest)?,
+        };
         let value = (self.ty.decode)(&bytes).map_err(|e| {
             format!(
                 "cache blob {} does not decode as {}: {e}",
@@ -241,6 +254,8 @@ pub struct RunSummary {
     pub nodes: Vec<NodeOutcome>,
     pub ms: f64,
     pub cancelled: bool,
+    /// The first failed write to the cache, if any (the node that wrote failed too).
+    pub cache_error: Option<String>,
 }
 
 impl RunSummary {
@@ -532,6 +547,10 @@ impl Shared<'_, '_> {
                                             ty: p.ty.clone(),
                                             value: Mutex::new(None),
                                             store: Some(store.clone()),
+                                            inline: m
+                                                .inline
+                                                .as_deref()
+                                                .and_then(crate::cache::from_hex),
                                         }),
                                     )
                                 })
@@ -597,7 +616,9 @@ impl Shared<'_, '_> {
                 .find(|p| p.name == port)
                 .map(|p| p.ty.clone());
             let Some(ty) = ty else { continue };
-            if let (Some(store), true) = (&self.store, self.use_cache) {
+            let inline =
+                (bytes.len() <= crate::cache::INLINE_MAX).then(|| crate::cache::to_hex(&bytes));
+            if let (Some(store), true, None) = (&self.store, self.use_cache, &inline) {
                 if let Err(e) = store.write_blob(&digest, &bytes) {
                     write_err = Some(format!(
                         "cannot write to the cache folder {}: {e}",
@@ -611,6 +632,7 @@ impl Shared<'_, '_> {
                     digest: digest.clone(),
                     size,
                     ty: ty.name.clone(),
+                    inline,
                 },
             );
             record.outputs.insert(port.clone(), digest.clone());
@@ -622,6 +644,7 @@ impl Shared<'_, '_> {
                     ty,
                     value: Mutex::new(Some(v)),
                     store: self.store.clone(),
+                    inline: None,
                 }),
             );
         }
@@ -675,7 +698,7 @@ impl Shared<'_, '_> {
                     p.name, m.ty, p.ty.name
                 ));
             }
-            if !store.has_blob(&m.digest) {
+            if m.inline.is_none() && !store.has_blob(&m.digest) {
                 return Err(format!(
                     "the cached value of output `{}` is missing from the cache",
                     p.name
@@ -700,9 +723,22 @@ impl Shared<'_, '_> {
         let Some(prev) = prev else {
             return "no cache entry (first run of this node)".into();
         };
+        if prev.key.is_empty() {
+            return format!(
+                "it did not run in the last run ({}: {})",
+                prev.status, prev.reason
+            );
+        }
         let mut why = diff_records(prev, rec, self);
         if why.is_empty() {
-            why.push("the cache entry is missing (cache cleared or collected?)".into());
+            if matches!(prev.status.as_str(), "failed" | "skipped") {
+                why.push(format!(
+                    "it did not finish in the last run ({})",
+                    prev.status
+                ));
+            } else {
+                why.push("the cache entry is missing (cache cleared or collected?)".into());
+            }
         }
         why.join("; ")
     }
@@ -751,7 +787,10 @@ impl Shared<'_, '_> {
         let n = &self.plan.nodes[i];
         let ms = t0.elapsed().as_secs_f64() * 1e3;
         record.status = status.as_str().into();
-        record.reason = reason.clone();
+        record.reason = match &error {
+            Some((k, m)) => format!("{reason}; it failed: {k}: {m}"),
+            None => reason.clone(),
+        };
         record.ms = ms;
         let out = NodeOutcome {
             name: n.name.clone(),
@@ -1116,11 +1155,12 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary, RunError> {
             }
         }
     }
-    let _ = write_failed;
+    let cache_error = write_failed.into_inner().ok().flatten();
     let summary = RunSummary {
         nodes,
         ms: t0.elapsed().as_secs_f64() * 1e3,
         cancelled,
+        cache_error,
     };
     if let Some(tx) = &opts.events {
         let _ = tx.send(Event::RunFinished {

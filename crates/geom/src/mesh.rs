@@ -61,7 +61,7 @@ pub struct Topology {
     /// The (up to) two faces of each edge; `NO_FACE` where missing. Edges with more than two
     /// faces are listed in `nonmanifold_edges` and keep their first two here.
     pub edge_faces: Vec<[u32; 2]>,
-    /// For face f, the edge index of its side i = (tri[i], tri[(i+1)%3]).
+    /// For face f, the edge index of its side i = `(tri[i], tri[(i+1) % 3])`.
     pub face_edges: Vec<[u32; 3]>,
     /// Edges with more than two incident faces.
     pub nonmanifold_edges: Vec<u32>,

@@ -18,7 +18,13 @@ use crestflow_nodes_curvature::{
     polynomial_curvature, shape_operator_curvature, PolynomialParams, ShapeOperatorParams,
 };
 
-const TORUS: AnalyticShape = AnalyticShape::Torus { major: 1.0, minor: 0.35 };
+/// A timed computation on a mesh.
+type Job<'a> = &'a (dyn Fn(&TriMesh) + Sync);
+
+const TORUS: AnalyticShape = AnalyticShape::Torus {
+    major: 1.0,
+    minor: 0.35,
+};
 
 /// A minimal OFF reader for benchmark inputs (triangles only; polygons are fanned).
 fn read_off(path: &str) -> Result<TriMesh, String> {
@@ -48,7 +54,9 @@ fn read_off(path: &str) -> Result<TriMesh, String> {
     let mut triangles = Vec::with_capacity(nf);
     for f in 0..nf {
         let k = num("face size")? as usize;
-        let idx: Vec<u32> = (0..k).map(|_| num("index").map(|x| x as u32)).collect::<Result<_, _>>()?;
+        let idx: Vec<u32> = (0..k)
+            .map(|_| num("index").map(|x| x as u32))
+            .collect::<Result<_, _>>()?;
         if idx.iter().any(|&i| i as usize >= nv) {
             return Err(format!("{path}: face {f} has an index out of range"));
         }
@@ -75,8 +83,11 @@ fn write_off(path: &str, mesh: &TriMesh) -> std::io::Result<()> {
     Ok(())
 }
 
-fn median_us_per_vertex(mesh: &TriMesh, threads: usize, f: &(dyn Fn(&TriMesh) + Sync)) -> (f64, Vec<f64>) {
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().expect("thread pool");
+fn median_us_per_vertex(mesh: &TriMesh, threads: usize, f: Job) -> (f64, Vec<f64>) {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .expect("thread pool");
     let mut runs = Vec::new();
     for _ in 0..3 {
         // A fresh mesh per run, so the (lazily built) connectivity is part of the timing.
@@ -93,11 +104,20 @@ fn median_us_per_vertex(mesh: &TriMesh, threads: usize, f: &(dyn Fn(&TriMesh) + 
 fn accuracy(n: usize) {
     let mesh = TORUS.mesh(n, 0.35, 1).expect("torus");
     let exact = analytic_curvature_field(&mesh, &TORUS);
+    let fast = PolynomialParams { refine_normals: false, ..Default::default() };
     let poly = polynomial_curvature(&mesh, &PolynomialParams::default(), Par::Rayon).expect("fit");
-    let so = shape_operator_curvature(&mesh, &ShapeOperatorParams::default(), Par::Rayon).expect("so");
-    for (name, f) in [("curvature.polynomial", &poly.field), ("curvature.shape_operator", &so.field)] {
+    let poly_fast = polynomial_curvature(&mesh, &fast, Par::Rayon).expect("fit");
+    let so =
+        shape_operator_curvature(&mesh, &ShapeOperatorParams::default(), Par::Rayon).expect("so");
+    for (name, f) in [
+        ("curvature.polynomial", &poly.field),
+        ("curvature.shape_operator", &so.field),
+    ] {
         let rel = |k: &[f64], t: &[f64]| {
-            let v: Vec<f64> = (0..k.len()).filter(|&i| t[i].abs() > 1e-6).map(|i| (k[i] - t[i]).abs() / t[i].abs()).collect();
+            let v: Vec<f64> = (0..k.len())
+                .filter(|&i| t[i].abs() > 1e-6)
+                .map(|i| (k[i] - t[i]).abs() / t[i].abs())
+                .collect();
             v.iter().sum::<f64>() / v.len() as f64
         };
         println!(
@@ -111,10 +131,16 @@ fn accuracy(n: usize) {
 
 fn main() {
     // `cargo bench` passes `--bench`; ignore flags we do not know.
-    let args: Vec<String> = std::env::args().skip(1).filter(|a| a != "--bench").collect();
+    let args: Vec<String> = std::env::args()
+        .skip(1)
+        .filter(|a| a != "--bench")
+        .collect();
     if args.first().map(String::as_str) == Some("--make-torus") {
         let path = args.get(1).expect("--make-torus PATH N");
-        let n: usize = args.get(2).and_then(|s| s.parse().ok()).expect("--make-torus PATH N");
+        let n: usize = args
+            .get(2)
+            .and_then(|s| s.parse().ok())
+            .expect("--make-torus PATH N");
         let seed: u64 = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(1);
         let mesh = TORUS.mesh(n, 0.35, seed).expect("torus");
         write_off(path, &mesh).expect("write torus");
@@ -141,10 +167,29 @@ fn main() {
             shape_operator_curvature(m, &ShapeOperatorParams::default(), Par::Rayon)
                 .expect("shape operator");
         };
-        let methods: [(&str, &(dyn Fn(&TriMesh) + Sync)); 2] =
-            [("curvature.polynomial", &poly), ("curvature.shape_operator", &so)];
+        let poly_fast = |m: &TriMesh| {
+            let p = PolynomialParams { refine_normals: false, ..Default::default() };
+            polynomial_curvature(m, &p, Par::Rayon).expect("polynomial");
+        };
+        let methods: [(&str, Job); 3] = [
+            ("curvature.polynomial", &poly),
+            ("curvature.polynomial refine_normals=false", &poly_fast),
+            ("curvature.shape_operator", &so),
+        ];
+        // CURVATURE_BENCH_ONLY=polynomial|shape_operator and CURVATURE_BENCH_THREADS=1|2 narrow
+        // the run (for profiling).
+        let only = std::env::var("CURVATURE_BENCH_ONLY").unwrap_or_default();
+        let threads_only: Option<usize> = std::env::var("CURVATURE_BENCH_THREADS")
+            .ok()
+            .and_then(|t| t.parse().ok());
         for (name, f) in methods {
+            if !name.contains(only.as_str()) {
+                continue;
+            }
             for threads in [1, 2] {
+                if threads_only.is_some_and(|t| t != threads) {
+                    continue;
+                }
                 let (median, runs) = median_us_per_vertex(&mesh, threads, f);
                 println!(
                     "{{\"mesh\": \"{path}\", \"n_vertices\": {}, \"method\": \"{name}\", \"threads\": {threads}, \"us_per_vertex\": {median:.4}, \"runs\": {runs:.4?}}}",

@@ -11,7 +11,11 @@ use crestflow_geom::TriMesh;
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum MeshInputError {
     #[error("face {face} references vertex {index} but the mesh has {n_vertices} vertices")]
-    IndexOutOfRange { face: usize, index: u32, n_vertices: usize },
+    IndexOutOfRange {
+        face: usize,
+        index: u32,
+        n_vertices: usize,
+    },
     #[error("vertex {vertex} has a non-finite coordinate {position:?}")]
     NonFinite { vertex: usize, position: V3 },
 }
@@ -23,13 +27,20 @@ pub fn check_mesh(mesh: &TriMesh) -> Result<(), MeshInputError> {
     for (face, t) in mesh.triangles.iter().enumerate() {
         for &index in t {
             if index as usize >= n {
-                return Err(MeshInputError::IndexOutOfRange { face, index, n_vertices: n });
+                return Err(MeshInputError::IndexOutOfRange {
+                    face,
+                    index,
+                    n_vertices: n,
+                });
             }
         }
     }
     for (vertex, p) in mesh.positions.iter().enumerate() {
         if !p.iter().all(|c| c.is_finite()) {
-            return Err(MeshInputError::NonFinite { vertex, position: *p });
+            return Err(MeshInputError::NonFinite {
+                vertex,
+                position: *p,
+            });
         }
     }
     Ok(())
@@ -166,7 +177,12 @@ mod tests {
 
     #[test]
     fn tangent_basis_is_orthonormal_and_right_handed() {
-        for n in [[0.0, 0.0, 1.0], [0.0, 0.0, -1.0], [1.0, 0.0, 0.0], [0.3, -0.4, 0.866]] {
+        for n in [
+            [0.0, 0.0, 1.0],
+            [0.0, 0.0, -1.0],
+            [1.0, 0.0, 0.0],
+            [0.3, -0.4, 0.866],
+        ] {
             let n = vec3::normalize(n);
             let (e1, e2) = tangent_basis(n);
             assert!((vec3::norm(e1) - 1.0).abs() < 1e-12);

@@ -1,39 +1,51 @@
 //! `curvature.polynomial`: principal curvatures, directions and extremality coefficients from a
-//! local bivariate cubic fitted at every vertex (thesis §2.4, "Curvature from Local Bivariate
-//! Polynomial Fitting"; Yoshizawa, Belyaev, Seidel 2005, "Fast and robust detection of crest
-//! lines on meshes" [YBS05], with the adjacent-normal cubic approximation of Goldfeather and
-//! Interrante 2004 [GI04]).
+//! local bivariate polynomial fitted at every vertex (thesis §2.4, "Curvature from Local
+//! Bivariate Polynomial Fitting"; Yoshizawa, Belyaev, Seidel 2005, "Fast and robust detection
+//! of crest lines on meshes" [YBS05], with the adjacent-normal cubic approximation of
+//! Goldfeather and Interrante 2004 [GI04]).
 //!
 //! At vertex p with unit normal n and a tangent frame (e1, e2), every vertex q of the n-ring
-//! gives local coordinates (x, y, z) and is fitted by
+//! gives local coordinates (x, y, z) and is fitted by the YBS05 cubic
 //!
-//! z(x, y) = a1 x + a2 y + ½(w0 x² + 2 w1 xy + w2 y²) + ⅙(w3 x³ + 3 w4 x²y + 3 w5 xy² + w6 y³).
+//! z(x, y) = ½(w0 x² + 2 w1 xy + w2 y²) + ⅙(w3 x³ + 3 w4 x²y + 3 w5 xy² + w6 y³)
 //!
-//! Each neighbour also contributes its normal (a, b, c) in the frame as two linear equations on
-//! the slopes, z_x = −a/c and z_y = −b/c (GI04), which makes the cubic terms — the curvature
-//! derivatives — well determined from small neighbourhoods. The linear terms (absent in YBS05)
-//! absorb the error of the vertex normal: the curvatures are the eigenvalues of the Weingarten
-//! map I⁻¹ II of the fitted graph at the origin, and the extremality coefficients
-//! (thesis §2.1.2, e = ∇k · t) are the third directional derivative C(t, t, t) corrected to
-//! first order for the slope s = ∇z · t (e = −C(t,t,t) + 3 k² s in this file's sign convention).
+//! plus two changes measured on analytic shapes (see the tests):
+//! - slope terms a1 x + a2 y absorb the error of the vertex normal. The curvatures are then the
+//!   eigenvalues of the Weingarten map I⁻¹ II of the fitted graph at the origin, and the
+//!   extremality coefficients (thesis §2.1.2, e = ∇k · t) the third directional derivative
+//!   C(t, t, t) corrected to first order for the slope s = ∇z · t (e = −C(t,t,t) + 3 k² s
+//!   in this file's sign convention, where k = −z_tt);
+//! - with `degree: 4` (the default) quartic terms (1/24)(q0 x⁴ + 4 q1 x³y + 6 q2 x²y² +
+//!   4 q3 xy³ + q4 y⁴) keep the quartic part of the surface from leaking into the quadratic and
+//!   cubic coefficients: on a 2-ring this bias is about 1 % of k on a 10k-vertex torus.
+//!
+//! With `use_normals` each neighbour also contributes its normal (a, b, c) in the frame as two
+//! linear equations on the slopes, z_x = −a/c and z_y = −b/c (GI04), which pins the cubic terms
+//! (the curvature derivatives) down. Averaged face normals are only first-order accurate on
+//! irregular meshes and would bias those equations, so a first pass fits a positions-only cubic
+//! at every vertex and the second pass uses the normals of those fits.
 //!
 //! Coordinates are divided by the neighbourhood's RMS distance before the least-squares solve
-//! (normal equations, Cholesky) so the system's conditioning does not depend on the mesh scale.
-//! Too few neighbours or a singular system: the ring grows (up to two more rings), then a
-//! quadric without cubic terms is fitted (extremality 0), then the vertex gets zeros; each
-//! case is counted in [`FitStats`].
+//! (normal equations assembled from moments Σ xᵃyᵇ, Cholesky) so the system's conditioning does
+//! not depend on the mesh scale. Too few neighbours or a singular system: the ring grows (up to
+//! two more rings), then lower degrees are tried down to a quadric (extremality 0), then the
+//! vertex gets zeros; each case is counted in [`FitStats`].
 //!
-//! Vertices are independent: the loop runs with [`Par::map_collect`], so the output is the
+//! Vertices are independent: both passes run with [`Par::map_collect`], so the output is the
 //! same bit for bit at any thread count.
 
 use serde::{Deserialize, Serialize};
 
-use crestflow_flow::{check_range, Ctx, NodeError, NodeKind, Outputs, Par, ParamIssue, Port, Validate};
+use crestflow_flow::{
+    check_range, Ctx, NodeError, NodeKind, Outputs, Par, ParamIssue, Port, Validate,
+};
 use crestflow_flow::{ErrorKind, Inputs};
 use crestflow_geom::vec3::{self, V3};
 use crestflow_geom::{CurvatureField, TriMesh};
 
-use crate::local::{area_weighted_normals, check_mesh, pencil_eigen2, tangent_basis, with_scratch, MeshInputError};
+use crate::local::{
+    area_weighted_normals, check_mesh, pencil_eigen2, tangent_basis, with_scratch, MeshInputError,
+};
 use crate::orient::orient_directions;
 
 /// Parameters of `curvature.polynomial`.
@@ -49,6 +61,10 @@ pub struct PolynomialParams {
     /// approximation; default true). Without them the fit uses positions only and needs more
     /// neighbours.
     pub use_normals: bool,
+    /// With `use_normals`: first refine the vertex normals by a positions-only cubic fit at
+    /// every vertex (default true). Twice the cost; without it the averaged face normals,
+    /// first-order accurate on irregular meshes, enter the adjacent-normal equations.
+    pub refine_normals: bool,
     /// Orient principal directions consistently across the mesh (thesis §2.5.1.1 step 2;
     /// default true).
     pub orient: bool,
@@ -56,7 +72,13 @@ pub struct PolynomialParams {
 
 impl Default for PolynomialParams {
     fn default() -> Self {
-        PolynomialParams { rings: 2, degree: 4, use_normals: true, orient: true }
+        PolynomialParams {
+            rings: 2,
+            degree: 4,
+            use_normals: true,
+            refine_normals: true,
+            orient: true,
+        }
     }
 }
 
@@ -153,24 +175,33 @@ pub fn polynomial_curvature(
 ) -> Result<PolynomialCurvature, PolynomialError> {
     let issues = params.validate();
     if !issues.is_empty() {
-        let text: Vec<String> =
-            issues.iter().map(|i| format!("{}: {}", i.field, i.message)).collect();
+        let text: Vec<String> = issues
+            .iter()
+            .map(|i| format!("{}: {}", i.field, i.message))
+            .collect();
         return Err(PolynomialError::Params(text.join("; ")));
     }
     check_mesh(mesh)?;
     let n = mesh.n_vertices();
-    let t0 = std::time::Instant::now();
     let topo = mesh.topology();
-    let t1 = std::time::Instant::now();
     let mut normals = area_weighted_normals(mesh);
-    let t2 = std::time::Instant::now();
-    if params.use_normals {
-        // Angle-weighted normals are only first-order accurate on irregular meshes, which
-        // would spoil the adjacent-normal equations: a positions-only pass refines them.
-        let first = PolynomialParams { use_normals: false, degree: 3, ..params.clone() };
+    if params.use_normals && params.refine_normals {
+        // Averaged face normals are only first-order accurate on irregular meshes, which
+        // would spoil the adjacent-normal equations: a positions-only cubic fit refines them.
+        let first = PolynomialParams {
+            use_normals: false,
+            degree: 3,
+            ..params.clone()
+        };
         let refined: Vec<V3> = par.map_collect(n, |v| {
             with_scratch(|scratch| {
-                let fit = fit_vertex(v as u32, mesh, &normals, None, topo, &first, scratch);
+                let input = FitInput {
+                    mesh,
+                    frame_normals: &normals,
+                    neighbour_normals: None,
+                    topo,
+                };
+                let fit = fit_vertex(v as u32, &input, &first, true, scratch);
                 if fit.status == Status::Failed || fit.status == Status::Reduced {
                     normals[v]
                 } else {
@@ -180,15 +211,21 @@ pub fn polynomial_curvature(
         });
         normals = refined;
     }
-    let t3 = std::time::Instant::now();
-    let neighbour_normals = if params.use_normals { Some(normals.as_slice()) } else { None };
+    let neighbour_normals = if params.use_normals {
+        Some(normals.as_slice())
+    } else {
+        None
+    };
+    let input = FitInput {
+        mesh,
+        frame_normals: &normals,
+        neighbour_normals,
+        topo,
+    };
     let fits: Vec<VertexFit> = par.map_collect(n, |v| {
-        with_scratch(|scratch| {
-            fit_vertex(v as u32, mesh, &normals, neighbour_normals, topo, params, scratch)
-        })
+        with_scratch(|scratch| fit_vertex(v as u32, &input, params, false, scratch))
     });
 
-    let t4 = std::time::Instant::now();
     let mut stats = FitStats::default();
     let mut field = CurvatureField {
         k_max: Vec::with_capacity(n),
@@ -215,14 +252,8 @@ pub fn polynomial_curvature(
         field.e_max.push(f.e_max);
         field.e_min.push(f.e_min);
     }
-    let t5 = std::time::Instant::now();
     if params.orient {
         orient_directions(mesh, &mut field);
-    }
-    let t6 = std::time::Instant::now();
-    if std::env::var("CF_TIMING").is_ok() {
-        let us = |a: std::time::Instant, b: std::time::Instant| (b - a).as_secs_f64() * 1e6 / n as f64;
-        eprintln!("topo {:.3} normals {:.3} pass1 {:.3} pass2 {:.3} collect {:.3} orient {:.3}", us(t0,t1), us(t1,t2), us(t2,t3), us(t3,t4), us(t4,t5), us(t5,t6));
     }
     Ok(PolynomialCurvature { field, stats })
 }
@@ -233,17 +264,32 @@ fn min_neighbours(nu: usize, with_normals: bool) -> usize {
     (3 * nu).div_ceil(2 * per).max(2)
 }
 
+/// What every vertex's fit reads.
+#[derive(Clone, Copy)]
+struct FitInput<'a> {
+    mesh: &'a TriMesh,
+    /// Orient each vertex's local frame.
+    frame_normals: &'a [V3],
+    /// If given, add the adjacent-normal equations.
+    neighbour_normals: Option<&'a [V3]>,
+    topo: &'a crestflow_geom::Topology,
+}
+
 /// Fits vertex `v` with the fallbacks of the module docs. `frame_normals[v]` orients the local
 /// frame; `neighbour_normals` (if any) add the adjacent-normal equations.
 fn fit_vertex(
     v: u32,
-    mesh: &TriMesh,
-    frame_normals: &[V3],
-    neighbour_normals: Option<&[V3]>,
-    topo: &crestflow_geom::Topology,
+    input: &FitInput,
     params: &PolynomialParams,
+    normal_only: bool,
     scratch: &mut crate::local::Scratch,
 ) -> VertexFit {
+    let FitInput {
+        mesh,
+        frame_normals,
+        neighbour_normals,
+        topo,
+    } = *input;
     let n0 = frame_normals[v as usize];
     if n0 == [0.0; 3] {
         return VertexFit::failed(n0);
@@ -258,9 +304,15 @@ fn fit_vertex(
     let with_normals = neighbour_normals.is_some();
     loop {
         if scratch.ring.len() >= min_neighbours(nu, with_normals) {
-            if let Some(mut fit) =
-                solve_local(v, mesh, n0, neighbour_normals, &scratch.ring, params.degree)
-            {
+            if let Some(mut fit) = solve_local(
+                v,
+                mesh,
+                n0,
+                neighbour_normals,
+                &scratch.ring,
+                params.degree,
+                normal_only,
+            ) {
                 if rings > params.rings {
                     fit.status = Status::Grown;
                 }
@@ -281,8 +333,15 @@ fn fit_vertex(
     // Lower degrees on the largest neighbourhood gathered.
     for degree in (2..params.degree).rev() {
         if scratch.ring.len() >= min_neighbours(unknowns(degree), with_normals) {
-            if let Some(mut fit) = solve_local(v, mesh, n0, neighbour_normals, &scratch.ring, degree)
-            {
+            if let Some(mut fit) = solve_local(
+                v,
+                mesh,
+                n0,
+                neighbour_normals,
+                &scratch.ring,
+                degree,
+                normal_only,
+            ) {
                 fit.status = Status::Reduced;
                 return fit;
             }
@@ -321,13 +380,27 @@ fn solve_local(
     neighbour_normals: Option<&[V3]>,
     ring: &[u32],
     degree: u32,
+    normal_only: bool,
 ) -> Option<VertexFit> {
     // One copy per degree, so that the loop bounds below are constants.
     match degree {
-        2 => solve_local_deg::<2>(v, mesh, n, neighbour_normals, ring),
-        3 => solve_local_deg::<3>(v, mesh, n, neighbour_normals, ring),
-        _ => solve_local_deg::<4>(v, mesh, n, neighbour_normals, ring),
+        2 => solve_local_deg::<2>(v, mesh, n, neighbour_normals, ring, normal_only),
+        3 => solve_local_deg::<3>(v, mesh, n, neighbour_normals, ring, normal_only),
+        _ => solve_local_deg::<4>(v, mesh, n, neighbour_normals, ring, normal_only),
     }
+}
+
+/// Index of x^a y^b in graded order (by total degree, then by b).
+#[inline]
+fn graded(a: usize, b: usize) -> usize {
+    let deg = a + b;
+    deg * (deg + 1) / 2 + b
+}
+
+/// Number of monomials of total degree ≤ `deg`.
+#[inline]
+const fn graded_count(deg: usize) -> usize {
+    (deg + 1) * (deg + 2) / 2
 }
 
 fn solve_local_deg<const D: usize>(
@@ -336,6 +409,7 @@ fn solve_local_deg<const D: usize>(
     n: V3,
     neighbour_normals: Option<&[V3]>,
     ring: &[u32],
+    normal_only: bool,
 ) -> Option<VertexFit> {
     let degree = D as u32;
     let nu = unknowns(degree);
@@ -357,35 +431,38 @@ fn solve_local_deg<const D: usize>(
     // Normal equations AᵀA u = Aᵀb. Every entry of AᵀA is a sum over neighbours of a product
     // of two monomials x^a y^b, so it is assembled from the moments Σ x^a y^b (a + b up to
     // twice the degree) instead of row by row: about 3× fewer operations per neighbour.
+    // Monomials x^a y^b are kept flat in graded order (total degree, then b), so that every
+    // accumulation below is a fixed-length loop over contiguous values.
     let d = D;
-    let (m2, m_slope) = (2 * D, 2 * D - 2);
-    let mut s = [[0.0f64; 9]; 9]; // Σ x^a y^b over all neighbours
-    let mut u_bad = [[0.0f64; 9]; 9]; // the same over neighbours without a usable normal
-    let mut zm = [[0.0f64; 5]; 5]; // Σ z x^a y^b
-    let mut pm = [[0.0f64; 4]; 4]; // Σ z_x x^a y^b (slopes from neighbour normals)
-    let mut qm = [[0.0f64; 4]; 4]; // Σ z_y x^a y^b
+    let m2 = 2 * D;
+    let n_s = graded_count(m2);
+    let n_z = graded_count(d);
+    let n_p = graded_count(d - 1);
+    let n_u = graded_count(m2 - 2);
+    let mut s = [0.0f64; 45]; // Σ x^a y^b over all neighbours (a + b ≤ 2D)
+    let mut u_bad = [0.0f64; 45]; // the same over neighbours without a usable normal
+    let mut zm = [0.0f64; 15]; // Σ z x^a y^b (a + b ≤ D)
+    let mut pm = [0.0f64; 10]; // Σ z_x x^a y^b (a + b < D), slopes from neighbour normals
+    let mut qm = [0.0f64; 10]; // Σ z_y x^a y^b
+    let mut mono = [0.0f64; 45];
+    mono[0] = 1.0;
     let mut n_rows = 0usize;
     let mut n_bad = 0usize;
-    let mut xp = [1.0f64; 9];
-    let mut yp = [1.0f64; 9];
     for &w in ring {
         let dv = vec3::scale(vec3::sub(mesh.positions[w as usize], p), inv_h);
         let (x, y, z) = (vec3::dot(dv, e1), vec3::dot(dv, e2), vec3::dot(dv, n));
-        for k in 1..=m2 {
-            xp[k] = xp[k - 1] * x;
-            yp[k] = yp[k - 1] * y;
-        }
-        for a in 0..=m2 {
-            let xa = xp[a];
-            for b in 0..=m2 - a {
-                s[a][b] += xa * yp[b];
+        for deg in 1..=m2 {
+            let (base, prev) = (deg * (deg + 1) / 2, (deg - 1) * deg / 2);
+            for b in 0..deg {
+                mono[base + b] = mono[prev + b] * x;
             }
+            mono[base + deg] = mono[prev + deg - 1] * y;
         }
-        for a in 0..=d {
-            let zx = z * xp[a];
-            for b in 0..=d - a {
-                zm[a][b] += zx * yp[b];
-            }
+        for k in 0..n_s {
+            s[k] += mono[k];
+        }
+        for k in 0..n_z {
+            zm[k] += z * mono[k];
         }
         n_rows += 1;
         if let Some(normals) = neighbour_normals {
@@ -394,20 +471,15 @@ fn solve_local_deg<const D: usize>(
             // A neighbour normal tilted by more than ~70° says nothing reliable about slopes.
             if c_ > 0.34 {
                 let (gx, gy) = (-a_ / c_, -b_ / c_);
-                for a in 0..d {
-                    for b in 0..d - a {
-                        let m = xp[a] * yp[b];
-                        pm[a][b] += gx * m;
-                        qm[a][b] += gy * m;
-                    }
+                for k in 0..n_p {
+                    pm[k] += gx * mono[k];
+                    qm[k] += gy * mono[k];
                 }
                 n_rows += 2;
             } else {
                 n_bad += 1;
-                for a in 0..=m_slope {
-                    for b in 0..=m_slope - a {
-                        u_bad[a][b] += xp[a] * yp[b];
-                    }
+                for k in 0..n_u {
+                    u_bad[k] += mono[k];
                 }
             }
         }
@@ -417,7 +489,14 @@ fn solve_local_deg<const D: usize>(
     }
     let with_normals = neighbour_normals.is_some();
     // Moments over the neighbours whose normals gave slope equations.
-    let t = |a: usize, b: usize| if n_bad == 0 { s[a][b] } else { s[a][b] - u_bad[a][b] };
+    let t = |a: usize, b: usize| {
+        let i = graded(a, b);
+        if n_bad == 0 {
+            s[i]
+        } else {
+            s[i] - u_bad[i]
+        }
+    };
     let mut ata = [[0.0f64; MAX_NU]; MAX_NU];
     let mut atb = [0.0f64; MAX_NU];
     for i in 0..nu {
@@ -425,7 +504,7 @@ fn solve_local_deg<const D: usize>(
         for j in i..nu {
             let (aj, bj, cj) = MONOMIALS[j];
             // Heights: m_i m_j; slopes: ∂x m_i ∂x m_j + ∂y m_i ∂y m_j.
-            let mut v = s[ai + aj][bi + bj];
+            let mut v = s[graded(ai + aj, bi + bj)];
             if with_normals {
                 if ai > 0 && aj > 0 {
                     v += (ai * aj) as f64 * t(ai + aj - 2, bi + bj);
@@ -436,13 +515,13 @@ fn solve_local_deg<const D: usize>(
             }
             ata[i][j] = ci * cj * v;
         }
-        let mut r = zm[ai][bi];
+        let mut r = zm[graded(ai, bi)];
         if with_normals {
             if ai > 0 {
-                r += ai as f64 * pm[ai - 1][bi];
+                r += ai as f64 * pm[graded(ai - 1, bi)];
             }
             if bi > 0 {
-                r += bi as f64 * qm[ai][bi - 1];
+                r += bi as f64 * qm[graded(ai, bi - 1)];
             }
         }
         atb[i] = ci * r;
@@ -455,6 +534,15 @@ fn solve_local_deg<const D: usize>(
 
     // Back to mesh units: slopes unchanged, quadratic / h, cubic / h².
     let (a1, a2) = (u[0], u[1]);
+    let normal = vec3::normalize(vec3::sub(
+        n,
+        vec3::add(vec3::scale(e1, a1), vec3::scale(e2, a2)),
+    ));
+    if normal_only {
+        let mut fit = VertexFit::failed(normal);
+        fit.status = Status::Full;
+        return Some(fit);
+    }
     let q = [u[2] * inv_h, u[3] * inv_h, u[4] * inv_h];
     let c = if degree >= 3 {
         let s = inv_h * inv_h;
@@ -489,13 +577,15 @@ fn solve_local_deg<const D: usize>(
             vec3::scale(n, slope(v)),
         ))
     };
-    let normal =
-        vec3::normalize(vec3::sub(n, vec3::add(vec3::scale(e1, a1), vec3::scale(e2, a2))));
     let t_max = lift(v_max);
     let t_min = vec3::cross(normal, t_max);
     // `lift(v_min)` equals `t_min` up to sign; keep the sign that matches v_min so that e_min
     // is the derivative along the returned direction.
-    let t_min_sign = if vec3::dot(t_min, lift(v_min)) < 0.0 { -1.0 } else { 1.0 };
+    let t_min_sign = if vec3::dot(t_min, lift(v_min)) < 0.0 {
+        -1.0
+    } else {
+        1.0
+    };
     Some(VertexFit {
         k_max,
         k_min,
@@ -510,6 +600,7 @@ fn solve_local_deg<const D: usize>(
 
 /// Solves the symmetric positive-definite system given by its upper triangle, in place
 /// (Cholesky). `None` when a pivot is not clearly positive (rank-deficient neighbourhood).
+#[allow(clippy::needless_range_loop)] // the index arithmetic is the algorithm
 fn cholesky_solve<const N: usize>(
     a: &mut [[f64; MAX_NU]; MAX_NU],
     b: &mut [f64; MAX_NU],
@@ -526,7 +617,8 @@ fn cholesky_solve<const N: usize>(
         for k in 0..i {
             d -= a[k][i] * a[k][i];
         }
-        if !(d > tol) {
+        // Written so that NaN also fails.
+        if d.is_nan() || d <= tol {
             return None;
         }
         let r = d.sqrt();
@@ -567,11 +659,12 @@ impl NodeKind for PolynomialNode {
     const KIND: &'static str = "curvature.polynomial";
     const VERSION: u32 = 1;
     const DOC: &'static str = "Principal curvatures, directions and extremality coefficients \
-        by fitting a bivariate cubic to each vertex's n-ring, positions and neighbour normals \
-        (thesis §2.4; Yoshizawa, Belyaev, Seidel 2005 with the adjacent-normal cubic \
-        approximation of Goldfeather and Interrante 2004). Directions are oriented \
-        consistently (§2.5.1.1 step 2). Vertices with too few neighbours grow their ring, \
-        then fall back to a quadric, then to zeros (counted in a warning).";
+        by fitting a bivariate polynomial (cubic as in Yoshizawa, Belyaev, Seidel 2005, plus \
+        slope and, by default, quartic terms) to each vertex's n-ring, positions and neighbour \
+        normals (adjacent-normal cubic approximation of Goldfeather and Interrante 2004; \
+        thesis §2.4). Directions are oriented consistently (§2.5.1.1 step 2). Vertices with \
+        too few neighbours grow their ring, then fall back to lower degrees, then to zeros \
+        (counted in a warning).";
 
     fn inputs() -> Vec<Port> {
         vec![Port::of::<TriMesh>("mesh", "the triangle mesh")]

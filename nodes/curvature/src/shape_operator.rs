@@ -86,7 +86,8 @@ pub fn shape_operator_curvature(
     let normals = mesh.vertex_normals();
     let topo = mesh.topology();
 
-    let faces: Vec<FaceTensor> = par.map_collect(mesh.n_faces(), |f| face_tensor(mesh, &normals, f));
+    let faces: Vec<FaceTensor> =
+        par.map_collect(mesh.n_faces(), |f| face_tensor(mesh, &normals, f));
 
     let per_vertex: Vec<(f64, f64, V3, V3, bool)> = par.map_collect(n, |v| {
         let nv = normals[v];
@@ -98,7 +99,9 @@ pub fn shape_operator_curvature(
             if ft.area <= 0.0 || nv == [0.0; 3] {
                 continue;
             }
-            let corner = mesh.triangles[f as usize].iter().position(|&c| c as usize == v);
+            let corner = mesh.triangles[f as usize]
+                .iter()
+                .position(|&c| c as usize == v);
             let Some(corner) = corner else { continue };
             let wt = ft.corner_area[corner];
             // Vertex frame rotated into the face plane, expressed in the face frame.
@@ -191,12 +194,14 @@ pub fn shape_operator_curvature(
 }
 
 /// The per-face second fundamental form and the corner areas of face `f`.
+#[allow(clippy::needless_range_loop)] // corners and sides are indexed together
 fn face_tensor(mesh: &TriMesh, normals: &[V3], f: usize) -> FaceTensor {
     let t = mesh.triangles[f];
     let p = mesh.face_points(f);
     let raw = mesh.face_normal_raw(f);
     let double_area = vec3::norm(raw);
-    if !(double_area > 0.0) {
+    // Written so that NaN also counts as degenerate.
+    if double_area.is_nan() || double_area <= 0.0 {
         return FaceTensor::default();
     }
     let nf = vec3::scale(raw, 1.0 / double_area);
@@ -254,7 +259,14 @@ fn face_tensor(mesh: &TriMesh, normals: &[V3], f: usize) -> FaceTensor {
             }
         }
     }
-    FaceTensor { normal: nf, u, w, ii, corner_area, area }
+    FaceTensor {
+        normal: nf,
+        u,
+        w,
+        ii,
+        corner_area,
+        area,
+    }
 }
 
 /// Solves a symmetric 3×3 system by Cramer's rule; `None` when it is singular.
@@ -266,14 +278,14 @@ fn solve3(m: [[f64; 3]; 3], b: [f64; 3]) -> Option<[f64; 3]> {
     };
     let d = det(m);
     let scale = m[0][0].abs() + m[1][1].abs() + m[2][2].abs();
-    if !(d.abs() > 1e-14 * scale * scale * scale) {
+    if d.is_nan() || d.abs() <= 1e-14 * scale * scale * scale {
         return None;
     }
     let mut out = [0.0; 3];
     for (c, o) in out.iter_mut().enumerate() {
         let mut a = m;
-        for r in 0..3 {
-            a[r][c] = b[r];
+        for (row, &br) in a.iter_mut().zip(&b) {
+            row[c] = br;
         }
         *o = det(a) / d;
     }
@@ -309,7 +321,10 @@ impl NodeKind for ShapeOperatorNode {
         let out = shape_operator_curvature(mesh, params, ctx.par)
             .map_err(|e| NodeError::from_source(ErrorKind::InvalidInput, e))?;
         if out.isolated > 0 {
-            ctx.warn(&format!("{} vertices have no face: curvature set to zero", out.isolated));
+            ctx.warn(&format!(
+                "{} vertices have no face: curvature set to zero",
+                out.isolated
+            ));
         }
         Ok(Outputs::new().with("field", out.field))
     }

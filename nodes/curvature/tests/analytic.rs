@@ -30,8 +30,9 @@ struct Errors {
 
 fn errors(mesh: &TriMesh, est: &CurvatureField, exact: &CurvatureField) -> Errors {
     let topo = mesh.topology();
-    let interior: Vec<usize> =
-        (0..mesh.n_vertices()).filter(|&v| !topo.is_boundary_vertex[v]).collect();
+    let interior: Vec<usize> = (0..mesh.n_vertices())
+        .filter(|&v| !topo.is_boundary_vertex[v])
+        .collect();
     let m = interior.len() as f64;
     let rms = (interior
         .iter()
@@ -74,7 +75,11 @@ fn errors(mesh: &TriMesh, est: &CurvatureField, exact: &CurvatureField) -> Error
         k_max_rel: rel(&est.k_max, &exact.k_max),
         k_min_rel: rel(&est.k_min, &exact.k_min),
         rel_mae: abs_sum / (2.0 * m) / rms,
-        dir_deg: if dir_n > 0 { dir_sum / dir_n as f64 } else { 0.0 },
+        dir_deg: if dir_n > 0 {
+            dir_sum / dir_n as f64
+        } else {
+            0.0
+        },
         e_max_mae: e_max / m / (rms * rms),
         e_min_mae: e_min / m / (rms * rms),
         normal_err: normal_err / m,
@@ -82,11 +87,15 @@ fn errors(mesh: &TriMesh, est: &CurvatureField, exact: &CurvatureField) -> Error
 }
 
 fn poly(mesh: &TriMesh) -> CurvatureField {
-    polynomial_curvature(mesh, &PolynomialParams::default(), Par::Rayon).unwrap().field
+    polynomial_curvature(mesh, &PolynomialParams::default(), Par::Rayon)
+        .unwrap()
+        .field
 }
 
 fn shape_op(mesh: &TriMesh) -> CurvatureField {
-    shape_operator_curvature(mesh, &ShapeOperatorParams::default(), Par::Rayon).unwrap().field
+    shape_operator_curvature(mesh, &ShapeOperatorParams::default(), Par::Rayon)
+        .unwrap()
+        .field
 }
 
 fn case(shape: &AnalyticShape, vertices: usize, jitter: f64) -> (TriMesh, CurvatureField) {
@@ -111,7 +120,10 @@ fn sphere_both_methods() {
 
 #[test]
 fn open_cylinder_both_methods() {
-    let shape = AnalyticShape::Cylinder { radius: 1.0, height: 4.0 };
+    let shape = AnalyticShape::Cylinder {
+        radius: 1.0,
+        height: 4.0,
+    };
     let (mesh, exact) = case(&shape, 3000, 0.3);
     let pf = poly(&mesh);
     let p = errors(&mesh, &pf, &exact);
@@ -123,13 +135,20 @@ fn open_cylinder_both_methods() {
     // Rim vertices (one-sided neighbourhoods) still get finite values of the right sign.
     let topo = mesh.topology();
     for v in (0..mesh.n_vertices()).filter(|&v| topo.is_boundary_vertex[v]) {
-        assert!(pf.k_max[v].is_finite() && pf.k_max[v] > 0.5, "rim vertex {v}: {}", pf.k_max[v]);
+        assert!(
+            pf.k_max[v].is_finite() && pf.k_max[v] > 0.5,
+            "rim vertex {v}: {}",
+            pf.k_max[v]
+        );
     }
 }
 
 #[test]
 fn irregular_torus_both_methods() {
-    let shape = AnalyticShape::Torus { major: 1.0, minor: 0.35 };
+    let shape = AnalyticShape::Torus {
+        major: 1.0,
+        minor: 0.35,
+    };
     let (mesh, exact) = case(&shape, 6000, 0.35);
     let p = errors(&mesh, &poly(&mesh), &exact);
     let s = errors(&mesh, &shape_op(&mesh), &exact);
@@ -146,7 +165,10 @@ fn irregular_torus_both_methods() {
 fn regular_torus_shape_operator_is_accurate() {
     // On a regular grid the per-face normal differences are symmetric and the shape operator
     // becomes accurate (errors cancel); this catches errors in the tensor rotation/weights.
-    let shape = AnalyticShape::Torus { major: 1.0, minor: 0.35 };
+    let shape = AnalyticShape::Torus {
+        major: 1.0,
+        minor: 0.35,
+    };
     let (mesh, exact) = case(&shape, 6000, 0.0);
     let s = errors(&mesh, &shape_op(&mesh), &exact);
     eprintln!("regular torus so {s:?}");
@@ -155,7 +177,11 @@ fn regular_torus_shape_operator_is_accurate() {
 
 #[test]
 fn ellipsoid_curvature_and_extremality() {
-    let shape = AnalyticShape::Ellipsoid { a: 3.0, b: 2.0, c: 1.0 };
+    let shape = AnalyticShape::Ellipsoid {
+        a: 3.0,
+        b: 2.0,
+        c: 1.0,
+    };
     let (mesh, exact) = case(&shape, 10_242, 0.3);
     let pf = poly(&mesh);
     let p = errors(&mesh, &pf, &exact);
@@ -189,14 +215,21 @@ fn ellipsoid_curvature_and_extremality() {
 #[test]
 fn scaling_and_rotation_act_as_expected() {
     // Scaling by s divides k by s and e by s²; a rotation rotates directions and normals.
-    let shape = AnalyticShape::Ellipsoid { a: 1.5, b: 1.0, c: 0.6 };
+    let shape = AnalyticShape::Ellipsoid {
+        a: 1.5,
+        b: 1.0,
+        c: 0.6,
+    };
     let mesh = shape.mesh(2562, 0.25, 9).unwrap();
     let base = poly(&mesh);
     let s = 7.0;
     let (c, sn) = (0.6f64, 0.8f64);
     let rot = |p: [f64; 3]| [c * p[0] - sn * p[1], sn * p[0] + c * p[1], p[2]];
     let moved = TriMesh::new(
-        mesh.positions.iter().map(|&p| vec3::scale(rot(p), s)).collect(),
+        mesh.positions
+            .iter()
+            .map(|&p| vec3::scale(rot(p), s))
+            .collect(),
         mesh.triangles.clone(),
     );
     let f = poly(&moved);
@@ -209,18 +242,27 @@ fn scaling_and_rotation_act_as_expected() {
         assert!(d.abs() > 1.0 - 1e-6 || (base.k_max[v] - base.k_min[v]).abs() < 1e-3);
         if d.abs() > 1.0 - 1e-6 {
             let e = f.e_max[v] * d.signum() * s * s;
-            assert!((e - base.e_max[v]).abs() < 1e-5 * base.e_max[v].abs().max(1.0), "vertex {v}");
+            assert!(
+                (e - base.e_max[v]).abs() < 1e-5 * base.e_max[v].abs().max(1.0),
+                "vertex {v}"
+            );
         }
     }
 }
 
 #[test]
 fn sequential_and_parallel_agree_bit_for_bit() {
-    let shape = AnalyticShape::Torus { major: 2.0, minor: 0.8 };
+    let shape = AnalyticShape::Torus {
+        major: 2.0,
+        minor: 0.8,
+    };
     let mesh = shape.mesh(4000, 0.3, 3).unwrap();
     let p = PolynomialParams::default();
     let a = polynomial_curvature(&mesh, &p, Par::Seq).unwrap();
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(3).build().unwrap();
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(3)
+        .build()
+        .unwrap();
     let b = pool.install(|| polynomial_curvature(&mesh, &p, Par::Rayon).unwrap());
     assert_eq!(a, b);
     let q = ShapeOperatorParams::default();
@@ -234,11 +276,19 @@ fn directions_are_oriented_consistently() {
     // The torus' principal directions are orientable: after orientation no edge may join
     // vertices whose t_max point in opposite directions, unless the estimate itself is far off
     // there (a noisy direction cannot be made to agree with all its neighbours).
-    let shape = AnalyticShape::Torus { major: 1.0, minor: 0.35 };
+    let shape = AnalyticShape::Torus {
+        major: 1.0,
+        minor: 0.35,
+    };
     let mesh = shape.mesh(3000, 0.35, 4).unwrap();
     let exact = analytic_curvature_field(&mesh, &shape);
     let off = |f: &CurvatureField, v: usize| {
-        vec3::dot(f.t_max[v], exact.t_max[v]).abs().min(1.0).acos().to_degrees() > 30.0
+        vec3::dot(f.t_max[v], exact.t_max[v])
+            .abs()
+            .min(1.0)
+            .acos()
+            .to_degrees()
+            > 30.0
     };
     let p = poly(&mesh);
     let s = shape_op(&mesh);
@@ -252,14 +302,20 @@ fn directions_are_oriented_consistently() {
             .collect();
         eprintln!("{}: {} obtuse edges", f.method, obtuse.len());
         for e in &obtuse {
-            assert!(off(f, e[0] as usize) || off(f, e[1] as usize), "{} edge {e:?}", f.method);
+            assert!(
+                off(f, e[0] as usize) || off(f, e[1] as usize),
+                "{} edge {e:?}",
+                f.method
+            );
         }
         for v in 0..f.len() {
             let frame = vec3::dot(vec3::cross(f.t_max[v], f.t_min[v]), f.normal[v]);
             assert!((frame - 1.0).abs() < 1e-9, "{} vertex {v}", f.method);
         }
     }
-    assert!(
-        mesh.topology().edges.iter().all(|e| vec3::dot(p.t_max[e[0] as usize], p.t_max[e[1] as usize]) > 0.0)
-    );
+    assert!(mesh
+        .topology()
+        .edges
+        .iter()
+        .all(|e| vec3::dot(p.t_max[e[0] as usize], p.t_max[e[1] as usize]) > 0.0));
 }

@@ -16,8 +16,14 @@ use crestflow_nodes_curvature::{
 
 fn all_finite(f: &CurvatureField) -> bool {
     (0..f.len()).all(|v| {
-        [f.k_max[v], f.k_min[v], f.e_max[v], f.e_min[v]].iter().all(|x| x.is_finite())
-            && f.t_max[v].iter().chain(&f.t_min[v]).chain(&f.normal[v]).all(|x| x.is_finite())
+        [f.k_max[v], f.k_min[v], f.e_max[v], f.e_min[v]]
+            .iter()
+            .all(|x| x.is_finite())
+            && f.t_max[v]
+                .iter()
+                .chain(&f.t_min[v])
+                .chain(&f.normal[v])
+                .all(|x| x.is_finite())
     })
 }
 
@@ -59,7 +65,10 @@ fn isolated_vertex_tiny_patch_and_degenerate_face() {
 
 #[test]
 fn single_triangle_and_empty_mesh() {
-    let tri = TriMesh::new(vec![[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], vec![[0, 1, 2]]);
+    let tri = TriMesh::new(
+        vec![[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+        vec![[0, 1, 2]],
+    );
     let p = polynomial_curvature(&tri, &PolynomialParams::default(), Par::Seq).unwrap();
     assert!(all_finite(&p.field));
     // Two neighbours and their normals: a plane, curvature zero.
@@ -67,25 +76,34 @@ fn single_triangle_and_empty_mesh() {
     let s = shape_operator_curvature(&tri, &ShapeOperatorParams::default(), Par::Seq).unwrap();
     assert!(s.field.k_max.iter().all(|&k| k.abs() < 1e-12));
     let empty = TriMesh::new(vec![], vec![]);
-    assert!(polynomial_curvature(&empty, &PolynomialParams::default(), Par::Seq)
-        .unwrap()
-        .field
-        .is_empty());
+    assert!(
+        polynomial_curvature(&empty, &PolynomialParams::default(), Par::Seq)
+            .unwrap()
+            .field
+            .is_empty()
+    );
 }
 
 #[test]
 fn bad_indices_and_coordinates_are_reported() {
-    let bad = TriMesh::new(vec![[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], vec![[0, 1, 7]]);
+    let bad = TriMesh::new(
+        vec![[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+        vec![[0, 1, 7]],
+    );
     assert_eq!(
         polynomial_curvature(&bad, &PolynomialParams::default(), Par::Seq).unwrap_err(),
-        PolynomialError::Mesh(MeshInputError::IndexOutOfRange { face: 0, index: 7, n_vertices: 3 })
+        PolynomialError::Mesh(MeshInputError::IndexOutOfRange {
+            face: 0,
+            index: 7,
+            n_vertices: 3
+        })
     );
     let nan = TriMesh::new(
         vec![[0.0; 3], [1.0, f64::NAN, 0.0], [0.0, 1.0, 0.0]],
         vec![[0, 1, 2]],
     );
-    let err = shape_operator_curvature(&nan, &ShapeOperatorParams::default(), Par::Seq)
-        .unwrap_err();
+    let err =
+        shape_operator_curvature(&nan, &ShapeOperatorParams::default(), Par::Seq).unwrap_err();
     assert!(matches!(
         err,
         ShapeOperatorError::Mesh(MeshInputError::NonFinite { vertex: 1, .. })
@@ -95,7 +113,11 @@ fn bad_indices_and_coordinates_are_reported() {
 
 #[test]
 fn params_are_validated() {
-    let p = PolynomialParams { rings: 0, degree: 5, ..Default::default() };
+    let p = PolynomialParams {
+        rings: 0,
+        degree: 5,
+        ..Default::default()
+    };
     let issues = p.validate();
     let fields: Vec<&str> = issues.iter().map(|i| i.field.as_str()).collect();
     assert_eq!(fields, ["rings", "degree"]);
@@ -116,17 +138,29 @@ impl ProgressSink for Sink {
 
 #[test]
 fn node_wrappers_produce_a_curvature_field() {
-    let mesh = AnalyticShape::Sphere { radius: 2.0 }.mesh(642, 0.0, 0).unwrap();
+    let mesh = AnalyticShape::Sphere { radius: 2.0 }
+        .mesh(642, 0.0, 0)
+        .unwrap();
     let sink = Sink(std::sync::Mutex::new(Vec::new()));
     let cancel = CancelToken::new();
-    let ctx = Ctx { node: "curv", par: Par::Seq, base_dir: Path::new("."), cancel: &cancel, sink: &sink };
+    let ctx = Ctx {
+        node: "curv",
+        par: Par::Seq,
+        base_dir: Path::new("."),
+        cancel: &cancel,
+        sink: &sink,
+    };
     let inputs = Inputs::new().with("mesh", mesh);
     assert_eq!(PolynomialNode::outputs()[0].ty.name, "CurvatureField");
     for out in [
         PolynomialNode::run(&PolynomialParams::default(), &inputs, &ctx).unwrap(),
         ShapeOperatorNode::run(&ShapeOperatorParams::default(), &inputs, &ctx).unwrap(),
     ] {
-        let f = out.get("field").unwrap().downcast_ref::<CurvatureField>().unwrap();
+        let f = out
+            .get("field")
+            .unwrap()
+            .downcast_ref::<CurvatureField>()
+            .unwrap();
         assert_eq!(f.len(), 642);
         let mean = f.k_max.iter().sum::<f64>() / 642.0;
         assert!((mean - 0.5).abs() < 0.01, "{} mean k_max {mean}", f.method);
@@ -139,7 +173,12 @@ fn node_wrappers_produce_a_curvature_field() {
     );
     let inputs = Inputs::new().with("mesh", with_isolated);
     ShapeOperatorNode::run(&ShapeOperatorParams::default(), &inputs, &ctx).unwrap();
-    assert!(sink.0.lock().unwrap().iter().any(|m| m.contains("1 vertices have no face")));
+    assert!(sink
+        .0
+        .lock()
+        .unwrap()
+        .iter()
+        .any(|m| m.contains("1 vertices have no face")));
     cancel.cancel();
     match PolynomialNode::run(&PolynomialParams::default(), &inputs, &ctx) {
         Err(e) => assert_eq!(e.kind, crestflow_flow::ErrorKind::Cancelled),
@@ -150,14 +189,23 @@ fn node_wrappers_produce_a_curvature_field() {
 /// A minimal OFF reader for the test mesh.
 fn read_off(path: &Path) -> TriMesh {
     let text = std::fs::read_to_string(path).unwrap();
-    let mut it = text.split_whitespace().skip(1).map(|t| t.parse::<f64>().unwrap());
+    let mut it = text
+        .split_whitespace()
+        .skip(1)
+        .map(|t| t.parse::<f64>().unwrap());
     let (nv, nf) = (it.next().unwrap() as usize, it.next().unwrap() as usize);
     it.next();
-    let positions = (0..nv).map(|_| [it.next().unwrap(), it.next().unwrap(), it.next().unwrap()]).collect();
+    let positions = (0..nv)
+        .map(|_| [it.next().unwrap(), it.next().unwrap(), it.next().unwrap()])
+        .collect();
     let triangles = (0..nf)
         .map(|_| {
             assert_eq!(it.next().unwrap(), 3.0);
-            [it.next().unwrap() as u32, it.next().unwrap() as u32, it.next().unwrap() as u32]
+            [
+                it.next().unwrap() as u32,
+                it.next().unwrap() as u32,
+                it.next().unwrap() as u32,
+            ]
         })
         .collect();
     TriMesh::new(positions, triangles)

@@ -78,9 +78,17 @@ pub enum CurvatureErrorError {
     #[error("the curvature field has {field} vertices but the mesh has {mesh}")]
     LengthMismatch { field: usize, mesh: usize },
     #[error("field `{name}` of the curvature field has {len} entries, expected {expected}")]
-    FieldLength { name: &'static str, len: usize, expected: usize },
+    FieldLength {
+        name: &'static str,
+        len: usize,
+        expected: usize,
+    },
     #[error("face {face} references vertex {index} but the mesh has {n_vertices} vertices")]
-    IndexOutOfRange { face: usize, index: u32, n_vertices: usize },
+    IndexOutOfRange {
+        face: usize,
+        index: u32,
+        n_vertices: usize,
+    },
     #[error("no vertex to evaluate (the mesh is empty or all vertices are on the boundary)")]
     NoVertices,
     #[error(transparent)]
@@ -117,7 +125,10 @@ pub fn curvature_error(
     params.shape.check()?;
     let n = mesh.n_vertices();
     if field.len() != n {
-        return Err(CurvatureErrorError::LengthMismatch { field: field.len(), mesh: n });
+        return Err(CurvatureErrorError::LengthMismatch {
+            field: field.len(),
+            mesh: n,
+        });
     }
     for (name, len) in [
         ("k_min", field.k_min.len()),
@@ -128,17 +139,26 @@ pub fn curvature_error(
         ("e_min", field.e_min.len()),
     ] {
         if len != n {
-            return Err(CurvatureErrorError::FieldLength { name, len, expected: n });
+            return Err(CurvatureErrorError::FieldLength {
+                name,
+                len,
+                expected: n,
+            });
         }
     }
     for (face, t) in mesh.triangles.iter().enumerate() {
         if let Some(&index) = t.iter().find(|&&i| i as usize >= n) {
-            return Err(CurvatureErrorError::IndexOutOfRange { face, index, n_vertices: n });
+            return Err(CurvatureErrorError::IndexOutOfRange {
+                face,
+                index,
+                n_vertices: n,
+            });
         }
     }
     let boundary = &mesh.topology().is_boundary_vertex;
-    let used: Vec<usize> =
-        (0..n).filter(|&v| !(params.skip_boundary && boundary[v])).collect();
+    let used: Vec<usize> = (0..n)
+        .filter(|&v| !(params.skip_boundary && boundary[v]))
+        .collect();
     if used.is_empty() {
         return Err(CurvatureErrorError::NoVertices);
     }
@@ -169,12 +189,22 @@ pub fn curvature_error(
             rel_min.push(d2 / k2.abs());
         }
         if k1 - k2 > params.umbilic_tol * rms {
-            let c = vec3::dot(vec3::normalize(field.t_max[v]), exact.t_max[v]).abs().min(1.0);
+            let c = vec3::dot(vec3::normalize(field.t_max[v]), exact.t_max[v])
+                .abs()
+                .min(1.0);
             dir.push(c.acos().to_degrees());
         }
         // Extremality is signed by its direction: compare along the exact orientation.
-        let s_max = if vec3::dot(field.t_max[v], exact.t_max[v]) < 0.0 { -1.0 } else { 1.0 };
-        let s_min = if vec3::dot(field.t_min[v], exact.t_min[v]) < 0.0 { -1.0 } else { 1.0 };
+        let s_max = if vec3::dot(field.t_max[v], exact.t_max[v]) < 0.0 {
+            -1.0
+        } else {
+            1.0
+        };
+        let s_min = if vec3::dot(field.t_min[v], exact.t_min[v]) < 0.0 {
+            -1.0
+        } else {
+            1.0
+        };
         e_max_err.push((s_max * field.e_max[v] - exact.e_max[v]).abs());
         e_min_err.push((s_min * field.e_min[v] - exact.e_min[v]).abs());
         let q = params.shape.project(mesh.positions[v]);
@@ -203,7 +233,10 @@ pub fn curvature_error(
     r.set("e_min.mae", e_min_mae);
     r.set("e.rel_mae", 0.5 * (e_max_mae + e_min_mae) / (rms * rms));
     let diag = mesh.bbox_diagonal();
-    r.set("surface_dist.max_rel", if diag > 0.0 { dist_max / diag } else { 0.0 });
+    r.set(
+        "surface_dist.max_rel",
+        if diag > 0.0 { dist_max / diag } else { 0.0 },
+    );
     Ok(r)
 }
 
@@ -226,7 +259,10 @@ impl NodeKind for CurvatureErrorNode {
         ]
     }
     fn outputs() -> Vec<Port> {
-        vec![Port::of::<Report>("report", "error figures (see the node's documentation)")]
+        vec![Port::of::<Report>(
+            "report",
+            "error figures (see the node's documentation)",
+        )]
     }
     fn run(params: &Self::Params, inputs: &Inputs, ctx: &Ctx) -> Result<Outputs, NodeError> {
         let mesh = inputs.get::<TriMesh>("mesh")?;

@@ -1,6 +1,6 @@
 //! `io.save_curves`: writes a feature curve network Γ = (V, E, C) (thesis §2.5, Def. 2.1) as a
-//! PLY with an `edge` element (MeshLab) or an OBJ of labelled `l` polylines (Blender), ridges
-//! and ravines told apart by colour and group name.
+//! PLY with an `edge` element (MeshLab) or an OBJ of `l` edges in labelled groups (Blender),
+//! ridges and ravines told apart by colour and group name.
 
 use std::path::{Path, PathBuf};
 
@@ -53,7 +53,8 @@ impl NodeKind for SaveCurvesNode {
     const DOC: &'static str = "Writes a feature curve network (thesis §2.5, Def. 2.1) by \
         extension: PLY with per-vertex strength and label colour (ridges red, ravines blue) and \
         an `edge` element (vertex1, vertex2, curve, label, closing) that MeshLab shows; or OBJ \
-        with one `l` polyline per curve in groups `ridge_<i>` / `ravine_<i>` for Blender.";
+        with each curve's edges as `l` lines in a group `ridge_<i>` / `ravine_<i>` (Blender, \
+        MeshLab).";
 
     fn inputs() -> Vec<Port> {
         vec![Port::of::<FeatureCurveNetwork>(

@@ -95,8 +95,8 @@ impl NodeKind for SaveMeshNode {
     const VERSION: u32 = 1;
     const DOC: &'static str = "Writes a mesh as binary little-endian PLY or OBJ (by extension). \
         With a curvature field connected, PLY vertices carry `k_max`, `k_min` (thesis §2.1, \
-        estimated as in §2.4) and a blue-grey-red colour of mean curvature saturating at the \
-        95th percentile of |H|; OBJ vertices carry the colour.";
+        estimated as in §2.4), `quality` = mean curvature H, and a blue-grey-red colour of H \
+        saturating at the 95th percentile of |H|; OBJ vertices carry the colour.";
 
     fn inputs() -> Vec<Port> {
         vec![

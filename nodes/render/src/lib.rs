@@ -12,7 +12,7 @@ pub mod png;
 pub mod raster;
 
 pub use png::{render, write_png, RenderError, RenderParams, RenderPngNode, Rendered};
-pub use raster::{Camera, RgbImage, UpAxis};
+pub use raster::{Camera, RgbImage, UpAxis, View};
 
 /// Adds this family's node kinds to `registry`.
 pub fn register(registry: &mut Registry) {

@@ -10,12 +10,20 @@ use std::fs::File;
 use std::io::BufWriter;
 use std::path::{Path, PathBuf};
 
-use crestflow_flow::{check_range, Ctx, ErrorKind, Inputs, NodeError, NodeKind, Outputs, ParamIssue, Port, Report, Validate};
+use crestflow_flow::{
+    check_range, Ctx, ErrorKind, Inputs, NodeError, NodeKind, Outputs, ParamIssue, Port, Report,
+    Validate,
+};
 use crestflow_geom::vec3::{self, V3};
 use crestflow_geom::{CurvatureField, CurveLabel, FeatureCurveNetwork, TriMesh};
 use serde::{Deserialize, Serialize};
 
-use crate::raster::{rasterize, Camera, RasterStats, RgbImage, Scene, Segment, Style, UpAxis};
+use crate::raster::{
+    rasterize, Camera, RasterStats, RgbImage, Scene, Segment, Style, UpAxis, View,
+};
+
+/// The largest `width × height × supersample²` accepted.
+pub const MAX_SAMPLES: u64 = 1 << 26;
 
 /// Parameters of `render.png`.
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -103,6 +111,17 @@ impl Validate for RenderParams {
         check_range(&mut v, "supersample", self.supersample, 1, 4);
         check_range(&mut v, "margin", self.margin, 0.0, 0.45);
         check_range(&mut v, "crease_angle", self.crease_angle, 0.0, 180.0);
+        // The rasterizer keeps about 40 bytes per sample: cap the samples at 2^26 (~2.7 GB).
+        let samples = self.width as u64 * self.height as u64 * (self.supersample as u64).pow(2);
+        if samples > MAX_SAMPLES {
+            v.push(ParamIssue::new(
+                "width",
+                format!(
+                    "{}×{} pixels with supersample {} is {samples} samples, more than {MAX_SAMPLES}",
+                    self.width, self.height, self.supersample
+                ),
+            ));
+        }
         v
     }
 }
@@ -110,22 +129,38 @@ impl Validate for RenderParams {
 /// Why a picture could not be made.
 #[derive(Debug, thiserror::Error)]
 pub enum RenderError {
+    #[error("invalid parameters: {0}")]
+    Params(String),
     #[error("the mesh has no triangles to render")]
     EmptyMesh,
     #[error("mesh vertex {vertex} has a non-finite coordinate {position:?}")]
     NonFinitePosition { vertex: usize, position: V3 },
     #[error("face {face} references vertex {index} but the mesh has {n_vertices} vertices")]
-    FaceIndex { face: usize, index: u32, n_vertices: usize },
+    FaceIndex {
+        face: usize,
+        index: u32,
+        n_vertices: usize,
+    },
     #[error("the curvature field has {field} vertices but the mesh has {mesh}")]
     FieldSize { field: usize, mesh: usize },
     #[error("curve {curve} references network vertex {index} but the network has {n_vertices}")]
-    CurveIndex { curve: usize, index: u32, n_vertices: usize },
+    CurveIndex {
+        curve: usize,
+        index: u32,
+        n_vertices: usize,
+    },
     #[error("network vertex {vertex} has a non-finite position {position:?}")]
     NonFiniteCurvePoint { vertex: usize, position: V3 },
     #[error("cannot write {path}: {source}")]
-    Io { path: PathBuf, source: std::io::Error },
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
     #[error("cannot encode {path} as PNG: {source}")]
-    Png { path: PathBuf, source: ::png::EncodingError },
+    Png {
+        path: PathBuf,
+        source: ::png::EncodingError,
+    },
 }
 
 /// A rendered picture and what it shows.
@@ -145,23 +180,41 @@ pub fn render(
     curvature: Option<&CurvatureField>,
     params: &RenderParams,
 ) -> Result<Rendered, RenderError> {
+    let issues = params.validate();
+    if !issues.is_empty() {
+        let text: Vec<String> = issues
+            .iter()
+            .map(|i| format!("{}: {}", i.field, i.message))
+            .collect();
+        return Err(RenderError::Params(text.join("; ")));
+    }
     let nv = mesh.n_vertices();
     if mesh.n_faces() == 0 {
         return Err(RenderError::EmptyMesh);
     }
     for (vertex, p) in mesh.positions.iter().enumerate() {
         if !p.iter().all(|c| c.is_finite()) {
-            return Err(RenderError::NonFinitePosition { vertex, position: *p });
+            return Err(RenderError::NonFinitePosition {
+                vertex,
+                position: *p,
+            });
         }
     }
     for (face, t) in mesh.triangles.iter().enumerate() {
         if let Some(&index) = t.iter().find(|&&i| i as usize >= nv) {
-            return Err(RenderError::FaceIndex { face, index, n_vertices: nv });
+            return Err(RenderError::FaceIndex {
+                face,
+                index,
+                n_vertices: nv,
+            });
         }
     }
     if let Some(k) = curvature {
         if k.len() != nv || k.k_min.len() != nv {
-            return Err(RenderError::FieldSize { field: k.len(), mesh: nv });
+            return Err(RenderError::FieldSize {
+                field: k.len(),
+                mesh: nv,
+            });
         }
     }
 
@@ -171,28 +224,32 @@ pub fn render(
     };
     let corner_normals = corner_normals(mesh, params.crease_angle);
     let (lo, hi) = mesh.bbox();
-    let camera = Camera::framing(
-        lo,
-        hi,
-        params.up,
-        params.azimuth,
-        params.elevation,
-        params.width as f64,
-        params.height as f64,
-        params.margin,
-    );
+    let view = View {
+        up: params.up,
+        azimuth_deg: params.azimuth,
+        elevation_deg: params.elevation,
+        margin: params.margin,
+    };
+    let camera = Camera::framing(lo, hi, &view, params.width as f64, params.height as f64);
 
     let mut segments = Vec::new();
     if let Some(net) = curves {
         let n = net.vertices.len();
         for (vertex, v) in net.vertices.iter().enumerate() {
             if !v.position.iter().all(|c| c.is_finite()) {
-                return Err(RenderError::NonFiniteCurvePoint { vertex, position: v.position });
+                return Err(RenderError::NonFiniteCurvePoint {
+                    vertex,
+                    position: v.position,
+                });
             }
         }
         for (ci, c) in net.curves.iter().enumerate() {
             if let Some(&index) = c.vertices.iter().find(|&&i| i as usize >= n) {
-                return Err(RenderError::CurveIndex { curve: ci, index, n_vertices: n });
+                return Err(RenderError::CurveIndex {
+                    curve: ci,
+                    index,
+                    n_vertices: n,
+                });
             }
             let color = match c.label {
                 CurveLabel::Ridge => params.ridge_color,
@@ -223,19 +280,29 @@ pub fn render(
         vertex_colors: &vertex_colors,
     };
     let (image, stats) = rasterize(&scene, &segments, &camera, &style);
-    Ok(Rendered { image, camera, stats })
+    Ok(Rendered {
+        image,
+        camera,
+        stats,
+    })
 }
 
 /// Writes `image` to `path` as an 8-bit RGB PNG, creating the parent folder.
 pub fn write_png(image: &RgbImage, path: &Path) -> Result<(), RenderError> {
-    let io = |source| RenderError::Io { path: path.to_path_buf(), source };
+    let io = |source| RenderError::Io {
+        path: path.to_path_buf(),
+        source,
+    };
     if let Some(dir) = path.parent() {
         if !dir.as_os_str().is_empty() {
             std::fs::create_dir_all(dir).map_err(io)?;
         }
     }
     let file = File::create(path).map_err(io)?;
-    let png_err = |source| RenderError::Png { path: path.to_path_buf(), source };
+    let png_err = |source| RenderError::Png {
+        path: path.to_path_buf(),
+        source,
+    };
     let mut enc = ::png::Encoder::new(BufWriter::new(file), image.width, image.height);
     enc.set_color(::png::ColorType::Rgb);
     enc.set_depth(::png::BitDepth::Eight);
@@ -249,7 +316,9 @@ pub fn write_png(image: &RgbImage, path: &Path) -> Result<(), RenderError> {
 /// corner's vertex that bend less than `crease_deg` from the corner's own face.
 fn corner_normals(mesh: &TriMesh, crease_deg: f64) -> Vec<V3> {
     let topo = mesh.topology();
-    let raw: Vec<V3> = (0..mesh.n_faces()).map(|f| mesh.face_normal_raw(f)).collect();
+    let raw: Vec<V3> = (0..mesh.n_faces())
+        .map(|f| mesh.face_normal_raw(f))
+        .collect();
     let unit: Vec<V3> = raw.iter().map(|&n| vec3::normalize(n)).collect();
     let cos_crease = crease_deg.to_radians().cos();
     let mut out = Vec::with_capacity(3 * mesh.n_faces());
@@ -272,15 +341,27 @@ fn corner_normals(mesh: &TriMesh, crease_deg: f64) -> Vec<V3> {
 /// (a robust scale: sharp CAD edges do not wash out the rest).
 fn mean_curvature_colors(k: &CurvatureField) -> Vec<[f64; 3]> {
     let h: Vec<f64> = (0..k.len()).map(|v| k.mean(v)).collect();
-    let mut mags: Vec<f64> = h.iter().filter(|x| x.is_finite()).map(|x| x.abs()).collect();
+    let mut mags: Vec<f64> = h
+        .iter()
+        .filter(|x| x.is_finite())
+        .map(|x| x.abs())
+        .collect();
     mags.sort_by(f64::total_cmp);
-    let scale = if mags.is_empty() { 0.0 } else { mags[((mags.len() - 1) as f64 * 0.95) as usize] };
+    let scale = if mags.is_empty() {
+        0.0
+    } else {
+        mags[((mags.len() - 1) as f64 * 0.95) as usize]
+    };
     let neutral = [0.82, 0.82, 0.80];
     let warm = [0.96, 0.62, 0.36];
     let cool = [0.42, 0.66, 0.92];
     h.iter()
         .map(|&x| {
-            let t = if scale > 0.0 && x.is_finite() { (x / scale).clamp(-1.0, 1.0) } else { 0.0 };
+            let t = if scale > 0.0 && x.is_finite() {
+                (x / scale).clamp(-1.0, 1.0)
+            } else {
+                0.0
+            };
             let target = if t >= 0.0 { warm } else { cool };
             let a = t.abs();
             [0, 1, 2].map(|i| neutral[i] + a * (target[i] - neutral[i]))
@@ -295,7 +376,8 @@ impl NodeKind for RenderPngNode {
     type Params = RenderParams;
     const KIND: &'static str = "render.png";
     const VERSION: u32 = 1;
-    const DOC: &'static str = "Renders the mesh (shaded, optionally coloured by mean curvature) with the \
+    const DOC: &'static str =
+        "Renders the mesh (shaded, optionally coloured by mean curvature) with the \
         feature curve network drawn over it (ridges blue, ravines magenta, as in the figures of \
         thesis §2.5.1.1) into a PNG file: software z-buffer rasterizer, orthographic camera framed \
         from the bounding box, depth-tested thick polylines.";
@@ -308,7 +390,10 @@ impl NodeKind for RenderPngNode {
         ]
     }
     fn outputs() -> Vec<Port> {
-        vec![Port::of::<Report>("report", "output path, image size, covered pixels")]
+        vec![Port::of::<Report>(
+            "report",
+            "output path, image size, covered pixels",
+        )]
     }
     fn output_files(params: &RenderParams) -> Vec<PathBuf> {
         vec![params.path.clone()]

@@ -31,6 +31,19 @@ pub enum UpAxis {
     Z,
 }
 
+/// Where the camera looks from.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct View {
+    /// World axis shown upwards.
+    pub up: UpAxis,
+    /// Degrees around the up axis; 0 looks at the front.
+    pub azimuth_deg: f64,
+    /// Degrees above the horizontal plane.
+    pub elevation_deg: f64,
+    /// Empty border on each side, as a fraction of the image size.
+    pub margin: f64,
+}
+
 /// An orthographic camera: world point -> (pixel x, pixel y, depth). Smaller depth is nearer.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {
@@ -47,18 +60,11 @@ pub struct Camera {
 }
 
 impl Camera {
-    /// Looks at the box `(lo, hi)` from azimuth/elevation (degrees) around `up_axis`, scaled so
-    /// that the projected box fills the image up to `margin` (a fraction of each side).
-    pub fn framing(
-        lo: V3,
-        hi: V3,
-        up_axis: UpAxis,
-        azimuth_deg: f64,
-        elevation_deg: f64,
-        width: f64,
-        height: f64,
-        margin: f64,
-    ) -> Camera {
+    /// Looks at the box `(lo, hi)` from `view`, scaled so that the projected box fills a
+    /// `width` × `height` image up to the view's margin.
+    pub fn framing(lo: V3, hi: V3, view: &View, width: f64, height: f64) -> Camera {
+        let (up_axis, azimuth_deg, elevation_deg, margin) =
+            (view.up, view.azimuth_deg, view.elevation_deg, view.margin);
         // (up, front, side) per up axis: azimuth 0 looks at the front, positive azimuth turns
         // the camera towards the side axis.
         let (u, f, s): (V3, V3, V3) = match up_axis {
@@ -68,7 +74,10 @@ impl Camera {
         };
         let (az, el) = (azimuth_deg.to_radians(), elevation_deg.to_radians());
         let horiz = vec3::add(vec3::scale(f, az.cos()), vec3::scale(s, az.sin()));
-        let towards_eye = vec3::normalize(vec3::add(vec3::scale(horiz, el.cos()), vec3::scale(u, el.sin())));
+        let towards_eye = vec3::normalize(vec3::add(
+            vec3::scale(horiz, el.cos()),
+            vec3::scale(u, el.sin()),
+        ));
         let right = vec3::normalize(vec3::cross(u, towards_eye));
         let cam_up = vec3::cross(towards_eye, right);
 
@@ -97,7 +106,15 @@ impl Camera {
         let ext = [(max[0] - min[0]).max(1e-300), (max[1] - min[1]).max(1e-300)];
         let usable = 1.0 - 2.0 * margin;
         let scale = (usable * width / ext[0]).min(usable * height / ext[1]);
-        Camera { towards_eye, right, up: cam_up, center, scale, width, height }
+        Camera {
+            towards_eye,
+            right,
+            up: cam_up,
+            center,
+            scale,
+            width,
+            height,
+        }
     }
 
     /// Pixel coordinates (x right, y down; pixel (i, j) covers [i, i+1) × [j, j+1)) and depth.
@@ -113,7 +130,12 @@ impl Camera {
 
     /// The same camera on an image `factor` times larger in each direction.
     pub fn scaled(&self, factor: f64) -> Camera {
-        Camera { scale: self.scale * factor, width: self.width * factor, height: self.height * factor, ..*self }
+        Camera {
+            scale: self.scale * factor,
+            width: self.width * factor,
+            height: self.height * factor,
+            ..*self
+        }
     }
 }
 
@@ -154,7 +176,12 @@ pub struct RasterStats {
 }
 
 /// Rasterizes `scene` and `segments` with `camera` (sized for the output image).
-pub fn rasterize(scene: &Scene, segments: &[Segment], camera: &Camera, style: &Style) -> (RgbImage, RasterStats) {
+pub fn rasterize(
+    scene: &Scene,
+    segments: &[Segment],
+    camera: &Camera,
+    style: &Style,
+) -> (RgbImage, RasterStats) {
     let ss = style.supersample.max(1) as usize;
     let (w_out, h_out) = (camera.width as usize, camera.height as usize);
     let (w, h) = (w_out * ss, h_out * ss);
@@ -162,27 +189,57 @@ pub fn rasterize(scene: &Scene, segments: &[Segment], camera: &Camera, style: &S
     let n_px = w * h;
     let mut depth = vec![f64::INFINITY; n_px];
     let mut face_of = vec![u32::MAX; n_px];
-    let mut bary = vec![[0.0f64; 2]; n_px];
+    // Colours and barycentric coordinates in f32: half the memory of large supersampled images.
+    let mut bary = vec![[0.0f32; 2]; n_px];
 
     let projected: Vec<[f64; 3]> = scene.positions.iter().map(|&p| cam.project(p)).collect();
     for (f, t) in scene.triangles.iter().enumerate() {
-        let p = [projected[t[0] as usize], projected[t[1] as usize], projected[t[2] as usize]];
-        let area = (p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) - (p[2][0] - p[0][0]) * (p[1][1] - p[0][1]);
+        let p = [
+            projected[t[0] as usize],
+            projected[t[1] as usize],
+            projected[t[2] as usize],
+        ];
+        let area =
+            (p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) - (p[2][0] - p[0][0]) * (p[1][1] - p[0][1]);
         if area == 0.0 || !area.is_finite() {
             continue;
         }
         let inv = 1.0 / area;
-        let xmin = p.iter().map(|q| q[0]).fold(f64::INFINITY, f64::min).floor().max(0.0) as usize;
-        let ymin = p.iter().map(|q| q[1]).fold(f64::INFINITY, f64::min).floor().max(0.0) as usize;
-        let xmax = p.iter().map(|q| q[0]).fold(f64::NEG_INFINITY, f64::max).ceil().min(w as f64) as usize;
-        let ymax = p.iter().map(|q| q[1]).fold(f64::NEG_INFINITY, f64::max).ceil().min(h as f64) as usize;
+        let xmin = p
+            .iter()
+            .map(|q| q[0])
+            .fold(f64::INFINITY, f64::min)
+            .floor()
+            .max(0.0) as usize;
+        let ymin = p
+            .iter()
+            .map(|q| q[1])
+            .fold(f64::INFINITY, f64::min)
+            .floor()
+            .max(0.0) as usize;
+        let xmax = p
+            .iter()
+            .map(|q| q[0])
+            .fold(f64::NEG_INFINITY, f64::max)
+            .ceil()
+            .min(w as f64) as usize;
+        let ymax = p
+            .iter()
+            .map(|q| q[1])
+            .fold(f64::NEG_INFINITY, f64::max)
+            .ceil()
+            .min(h as f64) as usize;
         for y in ymin..ymax {
             let py = y as f64 + 0.5;
             for x in xmin..xmax {
                 let px = x as f64 + 0.5;
                 // Barycentric coordinates of the pixel centre (either winding: two-sided).
-                let b1 = ((px - p[0][0]) * (p[2][1] - p[0][1]) - (p[2][0] - p[0][0]) * (py - p[0][1])) * inv;
-                let b2 = ((p[1][0] - p[0][0]) * (py - p[0][1]) - (px - p[0][0]) * (p[1][1] - p[0][1])) * inv;
+                let b1 = ((px - p[0][0]) * (p[2][1] - p[0][1])
+                    - (p[2][0] - p[0][0]) * (py - p[0][1]))
+                    * inv;
+                let b2 = ((p[1][0] - p[0][0]) * (py - p[0][1])
+                    - (px - p[0][0]) * (p[1][1] - p[0][1]))
+                    * inv;
                 let b0 = 1.0 - b1 - b2;
                 if b0 < 0.0 || b1 < 0.0 || b2 < 0.0 {
                     continue;
@@ -192,7 +249,7 @@ pub fn rasterize(scene: &Scene, segments: &[Segment], camera: &Camera, style: &S
                 if z < depth[i] {
                     depth[i] = z;
                     face_of[i] = f as u32;
-                    bary[i] = [b1, b2];
+                    bary[i] = [b1 as f32, b2 as f32];
                 }
             }
         }
@@ -203,7 +260,7 @@ pub fn rasterize(scene: &Scene, segments: &[Segment], camera: &Camera, style: &S
         vec3::add(cam.towards_eye, vec3::scale(cam.up, 0.5)),
         vec3::scale(cam.right, -0.3),
     ));
-    let bg = style.background.map(|c| c as f64 / 255.0);
+    let bg = style.background.map(|c| c as f32 / 255.0);
     let mut color = vec![bg; n_px];
     let mut mesh_samples = 0usize;
     for i in 0..n_px {
@@ -213,7 +270,7 @@ pub fn rasterize(scene: &Scene, segments: &[Segment], camera: &Camera, style: &S
         }
         mesh_samples += 1;
         let f = f as usize;
-        let [b1, b2] = bary[i];
+        let [b1, b2] = bary[i].map(f64::from);
         let b0 = 1.0 - b1 - b2;
         let cn = &scene.corner_normals[3 * f..3 * f + 3];
         let mut n = vec3::normalize(vec3::add(
@@ -225,7 +282,8 @@ pub fn rasterize(scene: &Scene, segments: &[Segment], camera: &Camera, style: &S
         }
         // A key light from above left plus a headlight fill, so faces turned away from the key
         // light keep their shape.
-        let lambert = 0.7 * vec3::dot(n, light).max(0.0) + 0.3 * vec3::dot(n, cam.towards_eye).max(0.0);
+        let lambert =
+            0.7 * vec3::dot(n, light).max(0.0) + 0.3 * vec3::dot(n, cam.towards_eye).max(0.0);
         let shade = style.ambient + (1.0 - style.ambient) * lambert;
         let t = scene.triangles[f];
         let c = [
@@ -237,7 +295,7 @@ pub fn rasterize(scene: &Scene, segments: &[Segment], camera: &Camera, style: &S
         for k in 0..3 {
             out[k] = (b0 * c[0][k] + b1 * c[1][k] + b2 * c[2][k]) * shade;
         }
-        color[i] = out;
+        color[i] = out.map(|v| v as f32);
     }
 
     // Curves: a sample within half the line width of a segment takes the segment's colour when
@@ -254,12 +312,16 @@ pub fn rasterize(scene: &Scene, segments: &[Segment], camera: &Camera, style: &S
         let y0 = (a[1].min(b[1]) - half).floor().max(0.0) as usize;
         let x1 = ((a[0].max(b[0]) + half).ceil().max(0.0) as usize).min(w);
         let y1 = ((a[1].max(b[1]) + half).ceil().max(0.0) as usize).min(h);
-        let c = seg.color.map(|v| v as f64 / 255.0);
+        let c = seg.color.map(|v| v as f32 / 255.0);
         for y in y0..y1 {
             let py = y as f64 + 0.5;
             for x in x0..x1 {
                 let px = x as f64 + 0.5;
-                let t = if len2 > 0.0 { (((px - a[0]) * dx + (py - a[1]) * dy) / len2).clamp(0.0, 1.0) } else { 0.0 };
+                let t = if len2 > 0.0 {
+                    (((px - a[0]) * dx + (py - a[1]) * dy) / len2).clamp(0.0, 1.0)
+                } else {
+                    0.0
+                };
                 let (cx, cy) = (a[0] + t * dx, a[1] + t * dy);
                 let d2 = (px - cx) * (px - cx) + (py - cy) * (py - cy);
                 if d2 > half * half {
@@ -296,7 +358,7 @@ pub fn rasterize(scene: &Scene, segments: &[Segment], camera: &Camera, style: &S
                 for sx in 0..ss {
                     let c = color[(y * ss + sy) * w + x * ss + sx];
                     for k in 0..3 {
-                        acc[k] += c[k];
+                        acc[k] += f64::from(c[k]);
                     }
                 }
             }
@@ -305,6 +367,16 @@ pub fn rasterize(scene: &Scene, segments: &[Segment], camera: &Camera, style: &S
             }
         }
     }
-    let stats = RasterStats { mesh_pixels: mesh_samples as f64 * norm, curve_pixels: curve_samples as f64 * norm };
-    (RgbImage { width: w_out as u32, height: h_out as u32, pixels }, stats)
+    let stats = RasterStats {
+        mesh_pixels: mesh_samples as f64 * norm,
+        curve_pixels: curve_samples as f64 * norm,
+    };
+    (
+        RgbImage {
+            width: w_out as u32,
+            height: h_out as u32,
+            pixels,
+        },
+        stats,
+    )
 }

@@ -18,8 +18,13 @@ fn registered_and_declares_its_file() {
     register(&mut reg);
     let node = reg.get("render.png").expect("registered");
     let ins: Vec<(&str, bool)> = node.inputs().iter().map(|p| (p.name, p.required)).collect();
-    assert_eq!(ins, vec![("mesh", true), ("curves", false), ("curvature", false)]);
-    let prepared = node.prepare("(path: \"out/pic.png\", width: 64, height: 48)").unwrap();
+    assert_eq!(
+        ins,
+        vec![("mesh", true), ("curves", false), ("curvature", false)]
+    );
+    let prepared = node
+        .prepare("(path: \"out/pic.png\", width: 64, height: 48)")
+        .unwrap();
     assert_eq!(prepared.output_files, vec![PathBuf::from("out/pic.png")]);
     assert!(node.prepare("(widht: 10)").is_err());
     assert!(node.prepare("(width: 0)").is_err());
@@ -29,10 +34,21 @@ fn registered_and_declares_its_file() {
 fn run_writes_the_png_relative_to_the_graph_folder() {
     let dir = tempfile::tempdir().unwrap();
     let mesh = shapes::sphere(1.0, 2).unwrap();
-    let params = RenderParams { path: "pics/sphere.png".into(), width: 64, height: 48, ..RenderParams::default() };
+    let params = RenderParams {
+        path: "pics/sphere.png".into(),
+        width: 64,
+        height: 48,
+        ..RenderParams::default()
+    };
     let inputs = Inputs::new().with::<TriMesh>("mesh", mesh);
     let cancel = CancelToken::new();
-    let ctx = Ctx { node: "render", par: Par::Seq, base_dir: dir.path(), cancel: &cancel, sink: &Quiet };
+    let ctx = Ctx {
+        node: "render",
+        par: Par::Seq,
+        base_dir: dir.path(),
+        cancel: &cancel,
+        sink: &Quiet,
+    };
     let out = RenderPngNode::run(&params, &inputs, &ctx).unwrap();
     let file = dir.path().join("pics/sphere.png");
     let bytes = std::fs::read(&file).unwrap();

@@ -13,14 +13,24 @@ fn main() {
 }
 
 fn bunny() -> (TriMesh, CurvatureField) {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data/meshes/organic/cgal_bunny00.off");
-    let mesh = load_mesh(path, &LoadOptions::default()).expect("bunny loads").mesh;
-    let field = polynomial_curvature(&mesh, &PolynomialParams::default(), Par::Seq).expect("curvature").field;
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../../shared/data/meshes/organic/cgal_bunny00.off"
+    );
+    let mesh = load_mesh(path, &LoadOptions::default())
+        .expect("bunny loads")
+        .mesh;
+    let field = polynomial_curvature(&mesh, &PolynomialParams::default(), Par::Seq)
+        .expect("curvature")
+        .field;
     (mesh, field)
 }
 
 fn pool(threads: usize) -> rayon::ThreadPool {
-    rayon::ThreadPoolBuilder::new().num_threads(threads).build().expect("thread pool")
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .expect("thread pool")
 }
 
 #[divan::bench(args = [1, 2], sample_count = 10)]
@@ -38,5 +48,7 @@ fn curvature_bunny(bencher: divan::Bencher, threads: usize) {
     let params = PolynomialParams::default();
     let par = if threads == 1 { Par::Seq } else { Par::Rayon };
     let pool = pool(threads);
-    bencher.bench_local(|| pool.install(|| polynomial_curvature(&mesh, &params, par).expect("curvature")));
+    bencher.bench_local(|| {
+        pool.install(|| polynomial_curvature(&mesh, &params, par).expect("curvature"))
+    });
 }

@@ -23,7 +23,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .into());
     }
     // Options as key=value after the two paths.
-    let opt = |key: &str| args[2..].iter().find_map(|a| a.strip_prefix(&format!("{key}=")).map(str::to_string));
+    let opt = |key: &str| {
+        args[2..]
+            .iter()
+            .find_map(|a| a.strip_prefix(&format!("{key}=")).map(str::to_string))
+    };
     let num = |key: &str, default: f64| -> Result<f64, Box<dyn std::error::Error>> {
         Ok(match opt(key) {
             Some(s) => s.parse()?,
@@ -35,7 +39,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         Some("Z") => UpAxis::Z,
         _ => UpAxis::Y,
     };
-    let par = if opt("threads").as_deref() == Some("1") { Par::Seq } else { Par::Rayon };
+    let par = if opt("threads").as_deref() == Some("1") {
+        Par::Seq
+    } else {
+        Par::Rayon
+    };
     let defaults = TraceParams::default();
     let trace_params = TraceParams {
         min_strength: num("strength", defaults.min_strength)?,

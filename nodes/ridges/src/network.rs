@@ -80,7 +80,11 @@ pub fn segment_graph(
         let cand = fe.map(|e| node_of_edge[e as usize]);
         let n_cand = cand.iter().filter(|&&n| n != u32::MAX).count();
         if n_cand < 2 {
-            return if n_cand == 1 { FaceCase::End } else { FaceCase::Empty };
+            return if n_cand == 1 {
+                FaceCase::End
+            } else {
+                FaceCase::Empty
+            };
         }
         let accept: [bool; 3] = match definition {
             Definition::Extrema => cand.map(|n| n != u32::MAX),
@@ -108,7 +112,10 @@ pub fn segment_graph(
             _ => FaceCase::Trisector([hits[0], hits[1], hits[2]]),
         }
     });
-    let mut g = SegmentGraph { nodes, ..Default::default() };
+    let mut g = SegmentGraph {
+        nodes,
+        ..Default::default()
+    };
     for (f, case) in cases.into_iter().enumerate() {
         match case {
             FaceCase::Empty => {}
@@ -147,7 +154,9 @@ fn triangle_slope(mesh: &TriMesh, field: &CurvatureField, family: Family, f: usi
         }
     }
     let ev = [0, 1, 2].map(|i| flip[i] * e[tri[i]]);
-    let tsum = (0..3).fold([0.0; 3], |acc, i| vec3::add(acc, vec3::scale(t[tri[i]], flip[i])));
+    let tsum = (0..3).fold([0.0; 3], |acc, i| {
+        vec3::add(acc, vec3::scale(t[tri[i]], flip[i]))
+    });
     let [p0, p1, p2] = mesh.face_points(f);
     let (u, v) = (vec3::sub(p1, p0), vec3::sub(p2, p0));
     let n = vec3::cross(u, v);
@@ -246,7 +255,10 @@ pub fn extract_arcs(n_nodes: usize, edges: &[[u32; 2]], alive: &[bool]) -> Vec<A
             if valence(cur as usize) != 2 {
                 break;
             }
-            let next = inc[offsets[cur as usize]..offsets[cur as usize + 1]].iter().copied().find(|&e| !used[e as usize]);
+            let next = inc[offsets[cur as usize]..offsets[cur as usize + 1]]
+                .iter()
+                .copied()
+                .find(|&e| !used[e as usize]);
             match next {
                 Some(e) => {
                     used[e as usize] = true;
@@ -256,14 +268,17 @@ pub fn extract_arcs(n_nodes: usize, edges: &[[u32; 2]], alive: &[bool]) -> Vec<A
                 None => break,
             }
         }
-        Arc { nodes, edges: path, closed: false }
+        Arc {
+            nodes,
+            edges: path,
+            closed: false,
+        }
     };
     for n in 0..n_nodes {
         if valence(n) == 2 || valence(n) == 0 {
             continue;
         }
-        for k in offsets[n]..offsets[n + 1] {
-            let e = inc[k];
+        for &e in &inc[offsets[n]..offsets[n + 1]] {
             if !used[e as usize] {
                 arcs.push(walk(n as u32, e, &mut used));
             }
@@ -271,7 +286,10 @@ pub fn extract_arcs(n_nodes: usize, edges: &[[u32; 2]], alive: &[bool]) -> Vec<A
     }
     // What is left are loops through regular nodes only.
     for n in 0..n_nodes {
-        if let Some(&e) = inc[offsets[n]..offsets[n + 1]].iter().find(|&&e| !used[e as usize]) {
+        if let Some(&e) = inc[offsets[n]..offsets[n + 1]]
+            .iter()
+            .find(|&&e| !used[e as usize])
+        {
             let mut arc = walk(n as u32, e, &mut used);
             // The walk ends where it started: drop the repeated node.
             if arc.nodes.len() > 1 && arc.nodes.first() == arc.nodes.last() {
@@ -291,7 +309,17 @@ mod tests {
     #[test]
     fn arcs_of_a_y_and_a_loop() {
         // A "Y": centre 0 with branches 0-1-2, 0-3, 0-4-5-6; and a triangle loop 7-8-9.
-        let edges = [[0, 1], [1, 2], [0, 3], [4, 0], [4, 5], [5, 6], [7, 8], [8, 9], [9, 7]];
+        let edges = [
+            [0, 1],
+            [1, 2],
+            [0, 3],
+            [4, 0],
+            [4, 5],
+            [5, 6],
+            [7, 8],
+            [8, 9],
+            [9, 7],
+        ];
         let arcs = extract_arcs(10, &edges, &[true; 9]);
         assert_eq!(arcs.len(), 4);
         assert_eq!(arcs[0].nodes, vec![0, 1, 2]);

@@ -23,9 +23,13 @@
 //! mesh's vertices, length in multiples of the mean edge length; the cyclideness integral
 //! T = l ∫ sqrt(e_max² + e_min²) ds is dimensionless already.
 
-use crestflow_flow::{check_range, Ctx, Inputs, NodeError, NodeKind, Outputs, Par, ParamIssue, Port, Report, Validate};
+use crestflow_flow::{
+    check_range, Ctx, Inputs, NodeError, NodeKind, Outputs, Par, ParamIssue, Port, Report, Validate,
+};
 use crestflow_geom::vec3::{self, V3};
-use crestflow_geom::{CurvatureField, CurveLabel, FcnVertex, FeatureCurve, FeatureCurveNetwork, TriMesh};
+use crestflow_geom::{
+    CurvatureField, CurveLabel, FcnVertex, FeatureCurve, FeatureCurveNetwork, TriMesh,
+};
 use serde::{Deserialize, Serialize};
 
 use crate::crossing::{edge_crossings, Definition, Family};
@@ -85,7 +89,13 @@ impl Validate for TraceParams {
         check_range(&mut v, "min_strength", self.min_strength, 0.0, 1e6);
         check_range(&mut v, "min_cyclideness", self.min_cyclideness, 0.0, 1e12);
         check_range(&mut v, "min_length", self.min_length, 0.0, 1e6);
-        check_range(&mut v, "umbilic_tolerance", self.umbilic_tolerance, 0.0, 1.0);
+        check_range(
+            &mut v,
+            "umbilic_tolerance",
+            self.umbilic_tolerance,
+            0.0,
+            1.0,
+        );
         v
     }
 }
@@ -93,14 +103,30 @@ impl Validate for TraceParams {
 /// Why tracing could not run.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum TraceError {
-    #[error("the curvature field's `{quantity}` has {field} values but the mesh has {mesh} vertices")]
-    FieldSize { quantity: &'static str, field: usize, mesh: usize },
+    #[error(
+        "the curvature field's `{quantity}` has {field} values but the mesh has {mesh} vertices"
+    )]
+    FieldSize {
+        quantity: &'static str,
+        field: usize,
+        mesh: usize,
+    },
     #[error("the curvature field's `{quantity}` is not finite at vertex {vertex} ({value})")]
-    NonFiniteField { quantity: &'static str, vertex: usize, value: f64 },
+    NonFiniteField {
+        quantity: &'static str,
+        vertex: usize,
+        value: f64,
+    },
     #[error("mesh vertex {vertex} has a non-finite coordinate {position:?}")]
     NonFinitePosition { vertex: usize, position: V3 },
     #[error("face {face} references vertex {index} but the mesh has {n_vertices} vertices")]
-    FaceIndex { face: usize, index: u32, n_vertices: usize },
+    FaceIndex {
+        face: usize,
+        index: u32,
+        n_vertices: usize,
+    },
+    #[error("invalid parameters: {0}")]
+    Params(String),
 }
 
 /// Counts and measures of one tracing run.
@@ -161,6 +187,14 @@ pub fn trace(
     params: &TraceParams,
     par: Par,
 ) -> Result<TraceOutput, TraceError> {
+    let issues = params.validate();
+    if !issues.is_empty() {
+        let text: Vec<String> = issues
+            .iter()
+            .map(|i| format!("{}: {}", i.field, i.message))
+            .collect();
+        return Err(TraceError::Params(text.join("; ")));
+    }
     check_inputs(mesh, field)?;
     let mut stats = TraceStats {
         curvature_scale: median_abs_curvature(field),
@@ -174,7 +208,14 @@ pub fn trace(
         Families::Both => &[Family::Ridge, Family::Ravine],
     };
     for &family in families {
-        let crossings = edge_crossings(mesh, field, family, params.definition, params.umbilic_tolerance, par);
+        let crossings = edge_crossings(
+            mesh,
+            field,
+            family,
+            params.definition,
+            params.umbilic_tolerance,
+            par,
+        );
         let n_points = crossings.iter().filter(|c| c.is_some()).count();
         let graph = segment_graph(mesh, field, family, params.definition, &crossings, par);
         stats.trisectors += graph.trisectors;
@@ -211,36 +252,71 @@ fn check_inputs(mesh: &TriMesh, field: &CurvatureField) -> Result<(), TraceError
     let n = mesh.n_vertices();
     for (vertex, p) in mesh.positions.iter().enumerate() {
         if !p.iter().all(|c| c.is_finite()) {
-            return Err(TraceError::NonFinitePosition { vertex, position: *p });
+            return Err(TraceError::NonFinitePosition {
+                vertex,
+                position: *p,
+            });
         }
     }
     for (face, t) in mesh.triangles.iter().enumerate() {
         if let Some(&index) = t.iter().find(|&&i| i as usize >= n) {
-            return Err(TraceError::FaceIndex { face, index, n_vertices: n });
+            return Err(TraceError::FaceIndex {
+                face,
+                index,
+                n_vertices: n,
+            });
         }
     }
-    let scalars: [(&'static str, &[f64]); 4] =
-        [("k_max", &field.k_max), ("k_min", &field.k_min), ("e_max", &field.e_max), ("e_min", &field.e_min)];
+    let scalars: [(&'static str, &[f64]); 4] = [
+        ("k_max", &field.k_max),
+        ("k_min", &field.k_min),
+        ("e_max", &field.e_max),
+        ("e_min", &field.e_min),
+    ];
     let vectors: [(&'static str, &[V3]); 2] = [("t_max", &field.t_max), ("t_min", &field.t_min)];
     for (quantity, xs) in scalars {
         if xs.len() != n {
-            return Err(TraceError::FieldSize { quantity, field: xs.len(), mesh: n });
+            return Err(TraceError::FieldSize {
+                quantity,
+                field: xs.len(),
+                mesh: n,
+            });
         }
     }
     for (quantity, xs) in vectors {
         if xs.len() != n {
-            return Err(TraceError::FieldSize { quantity, field: xs.len(), mesh: n });
+            return Err(TraceError::FieldSize {
+                quantity,
+                field: xs.len(),
+                mesh: n,
+            });
         }
     }
     for (quantity, xs) in scalars {
         if let Some((vertex, &value)) = xs.iter().enumerate().find(|(_, x)| !x.is_finite()) {
-            return Err(TraceError::NonFiniteField { quantity, vertex, value });
+            return Err(TraceError::NonFiniteField {
+                quantity,
+                vertex,
+                value,
+            });
         }
     }
     for (quantity, xs) in vectors {
-        if let Some((vertex, t)) = xs.iter().enumerate().find(|(_, t)| !t.iter().all(|c| c.is_finite())) {
-            let value = t.iter().copied().find(|c| !c.is_finite()).unwrap_or(f64::NAN);
-            return Err(TraceError::NonFiniteField { quantity, vertex, value });
+        if let Some((vertex, t)) = xs
+            .iter()
+            .enumerate()
+            .find(|(_, t)| !t.iter().all(|c| c.is_finite()))
+        {
+            let value = t
+                .iter()
+                .copied()
+                .find(|c| !c.is_finite())
+                .unwrap_or(f64::NAN);
+            return Err(TraceError::NonFiniteField {
+                quantity,
+                vertex,
+                value,
+            });
         }
     }
     Ok(())
@@ -249,7 +325,12 @@ fn check_inputs(mesh: &TriMesh, field: &CurvatureField) -> Result<(), TraceError
 /// Median over vertices of max(|k_max|, |k_min|): a curvature unit that sharp edges (few,
 /// huge values) and flat regions (many zeros) both leave meaningful on typical meshes.
 fn median_abs_curvature(field: &CurvatureField) -> f64 {
-    let mut k: Vec<f64> = field.k_max.iter().zip(&field.k_min).map(|(a, b)| a.abs().max(b.abs())).collect();
+    let mut k: Vec<f64> = field
+        .k_max
+        .iter()
+        .zip(&field.k_min)
+        .map(|(a, b)| a.abs().max(b.abs()))
+        .collect();
     if k.is_empty() {
         return 0.0;
     }
@@ -281,7 +362,11 @@ fn measure(graph: &SegmentGraph, arc: &Arc) -> ArcMeasure {
         cyc += l * 0.5 * (a.cyclideness + b.cyclideness);
     }
     let strength = if length > 0.0 { strength / length } else { 0.0 };
-    ArcMeasure { length, strength, cyclideness: length * cyc }
+    ArcMeasure {
+        length,
+        strength,
+        cyclideness: length * cyc,
+    }
 }
 
 /// Step 5: drops arcs failing a threshold, re-forms arcs (branches removed at a junction let
@@ -318,7 +403,12 @@ fn filter_arcs(graph: &SegmentGraph, params: &TraceParams, stats: &mut TraceStat
 
 /// Adds `arcs` to `net` as curves with `label`; graph nodes become network vertices in order of
 /// first use.
-fn append_arcs(net: &mut FeatureCurveNetwork, graph: &SegmentGraph, arcs: &[Arc], label: CurveLabel) {
+fn append_arcs(
+    net: &mut FeatureCurveNetwork,
+    graph: &SegmentGraph,
+    arcs: &[Arc],
+    label: CurveLabel,
+) {
     let mut index = vec![u32::MAX; graph.nodes.len()];
     for arc in arcs {
         let mut vertices = Vec::with_capacity(arc.nodes.len());
@@ -326,11 +416,19 @@ fn append_arcs(net: &mut FeatureCurveNetwork, graph: &SegmentGraph, arcs: &[Arc]
             if index[n as usize] == u32::MAX {
                 index[n as usize] = net.vertices.len() as u32;
                 let g = &graph.nodes[n as usize];
-                net.vertices.push(FcnVertex { position: g.position, location: g.location, strength: g.strength });
+                net.vertices.push(FcnVertex {
+                    position: g.position,
+                    location: g.location,
+                    strength: g.strength,
+                });
             }
             vertices.push(index[n as usize]);
         }
-        net.curves.push(FeatureCurve { vertices, closed: arc.closed, label });
+        net.curves.push(FeatureCurve {
+            vertices,
+            closed: arc.closed,
+            label,
+        });
     }
 }
 
@@ -351,12 +449,18 @@ impl NodeKind for TraceNode {
     fn inputs() -> Vec<Port> {
         vec![
             Port::of::<TriMesh>("mesh", "the surface"),
-            Port::of::<CurvatureField>("curvature", "principal curvatures, directions, extremality"),
+            Port::of::<CurvatureField>(
+                "curvature",
+                "principal curvatures, directions, extremality",
+            ),
         ]
     }
     fn outputs() -> Vec<Port> {
         vec![
-            Port::of::<FeatureCurveNetwork>("network", "ridges and ravines (labelled), arcs and loops"),
+            Port::of::<FeatureCurveNetwork>(
+                "network",
+                "ridges and ravines (labelled), arcs and loops",
+            ),
             Port::of::<Report>("report", "curve counts, lengths, filtered counts"),
         ]
     }
@@ -366,6 +470,8 @@ impl NodeKind for TraceNode {
         ctx.check_cancelled()?;
         let out = trace(mesh, field, params, ctx.par)
             .map_err(|e| NodeError::from_source(crestflow_flow::ErrorKind::InvalidInput, e))?;
-        Ok(Outputs::new().with("network", out.network).with("report", out.stats.to_report()))
+        Ok(Outputs::new()
+            .with("network", out.network)
+            .with("report", out.stats.to_report()))
     }
 }

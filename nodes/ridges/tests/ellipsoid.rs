@@ -79,15 +79,25 @@ fn thesis_definition_gives_exactly_the_ab_ellipse_as_ridge() {
     let out = trace(&mesh, &field, &TraceParams::default(), Par::Rayon).unwrap();
     let net = &out.network;
 
-    assert_eq!(out.stats.ravines, 0, "a convex surface has no ravines under Def. 2.2");
+    assert_eq!(
+        out.stats.ravines, 0,
+        "a convex surface has no ravines under Def. 2.2"
+    );
     let ridges = segments(net, Some(CurveLabel::Ridge));
     let cov = coverage(&xy, &ridges, tol);
     assert!(cov >= 0.9, "a-b ellipse covered {cov}");
     // Every traced point lies on that ellipse (none on the other two).
     for v in &net.vertices {
         let d = dist_to_polyline(v.position, &xy);
-        assert!(d <= tol, "vertex {:?} is {d} from the a-b ellipse", v.position);
-        assert!(matches!(v.location, SurfacePoint::Edge { .. } | SurfacePoint::Face { .. }));
+        assert!(
+            d <= tol,
+            "vertex {:?} is {d} from the a-b ellipse",
+            v.position
+        );
+        assert!(matches!(
+            v.location,
+            SurfacePoint::Edge { .. } | SurfacePoint::Face { .. }
+        ));
     }
     assert!(coverage(&ellipse(0, A, 2, C), &ridges, tol) < 0.1);
     assert!(coverage(&ellipse(1, B, 2, C), &ridges, tol) < 0.1);
@@ -95,11 +105,18 @@ fn thesis_definition_gives_exactly_the_ab_ellipse_as_ridge() {
     let h = ((A - B) / (A + B)).powi(2);
     let perimeter = PI * (A + B) * (1.0 + 3.0 * h / (10.0 + (4.0 - 3.0 * h).sqrt()));
     let len = out.stats.ridge_length;
-    assert!((len - perimeter).abs() < 0.02 * perimeter, "ridge length {len} vs {perimeter}");
+    assert!(
+        (len - perimeter).abs() < 0.02 * perimeter,
+        "ridge length {len} vs {perimeter}"
+    );
     // The strength along it is k_max there: between the curvatures across at its ends.
     for v in &net.vertices {
         let (lo, hi) = (B / (C * C) * 0.98, A / (C * C) * 1.02);
-        assert!(v.strength > lo && v.strength < hi, "strength {}", v.strength);
+        assert!(
+            v.strength > lo && v.strength < hi,
+            "strength {}",
+            v.strength
+        );
     }
 }
 
@@ -107,51 +124,104 @@ fn thesis_definition_gives_exactly_the_ab_ellipse_as_ridge() {
 fn inside_out_ellipsoid_gives_the_ab_ellipse_as_ravine() {
     let (mesh, field) = setup();
     let tol = 0.01 * mesh.bbox_diagonal();
-    let out = trace(&mesh, &inside_out(&field), &TraceParams::default(), Par::Rayon).unwrap();
+    let out = trace(
+        &mesh,
+        &inside_out(&field),
+        &TraceParams::default(),
+        Par::Rayon,
+    )
+    .unwrap();
     assert_eq!(out.stats.ridges, 0);
     let ravines = segments(&out.network, Some(CurveLabel::Ravine));
     let xy = ellipse(0, A, 1, B);
     assert!(coverage(&xy, &ravines, tol) >= 0.9);
-    assert!(out.network.vertices.iter().all(|v| dist_to_polyline(v.position, &xy) <= tol));
+    assert!(out
+        .network
+        .vertices
+        .iter()
+        .all(|v| dist_to_polyline(v.position, &xy) <= tol));
 }
 
 #[test]
 fn extrema_definition_gives_all_three_principal_ellipses() {
     let (mesh, field) = setup();
     let tol = 0.01 * mesh.bbox_diagonal();
-    let params = TraceParams { definition: Definition::Extrema, min_strength: 0.0, min_cyclideness: 0.0, ..Default::default() };
+    let params = TraceParams {
+        definition: Definition::Extrema,
+        min_strength: 0.0,
+        min_cyclideness: 0.0,
+        ..Default::default()
+    };
     let out = trace(&mesh, &field, &params, Par::Rayon).unwrap();
     let net = &out.network;
-    let ells = [ellipse(0, A, 1, B), ellipse(0, A, 2, C), ellipse(1, B, 2, C)];
+    let ells = [
+        ellipse(0, A, 1, B),
+        ellipse(0, A, 2, C),
+        ellipse(1, B, 2, C),
+    ];
     let all = segments(net, None);
     for (i, e) in ells.iter().enumerate() {
         let cov = coverage(e, &all, tol);
         assert!(cov >= 0.9, "ellipse {i} covered {cov}");
     }
     for v in &net.vertices {
-        let d = ells.iter().map(|e| dist_to_polyline(v.position, e)).fold(f64::INFINITY, f64::min);
-        assert!(d <= tol, "vertex {:?} is {d} from every principal ellipse", v.position);
+        let d = ells
+            .iter()
+            .map(|e| dist_to_polyline(v.position, e))
+            .fold(f64::INFINITY, f64::min);
+        assert!(
+            d <= tol,
+            "vertex {:?} is {d} from every principal ellipse",
+            v.position
+        );
     }
     // Which family traces which ellipse.
     let ridges = segments(net, Some(CurveLabel::Ridge));
     let ravines = segments(net, Some(CurveLabel::Ravine));
-    assert!(coverage(&ells[0], &ridges, tol) >= 0.9, "a-b: extremum of k_max");
-    assert!(coverage(&ells[2], &ravines, tol) >= 0.9, "b-c: extremum of k_min");
-    let (r, v) = (coverage(&ells[1], &ridges, tol), coverage(&ells[1], &ravines, tol));
-    assert!(r > 0.2 && v > 0.2, "a-c is split between the families: {r} / {v}");
+    assert!(
+        coverage(&ells[0], &ridges, tol) >= 0.9,
+        "a-b: extremum of k_max"
+    );
+    assert!(
+        coverage(&ells[2], &ravines, tol) >= 0.9,
+        "b-c: extremum of k_min"
+    );
+    let (r, v) = (
+        coverage(&ells[1], &ridges, tol),
+        coverage(&ells[1], &ravines, tol),
+    );
+    assert!(
+        r > 0.2 && v > 0.2,
+        "a-c is split between the families: {r} / {v}"
+    );
 }
 
 #[test]
 fn sequential_and_parallel_agree_bit_for_bit() {
     let (mesh, field) = setup();
     for definition in [Definition::Thesis, Definition::Extrema] {
-        let p = TraceParams { definition, min_strength: 0.0, min_cyclideness: 0.0, min_length: 0.0, ..Default::default() };
+        let p = TraceParams {
+            definition,
+            min_strength: 0.0,
+            min_cyclideness: 0.0,
+            min_length: 0.0,
+            ..Default::default()
+        };
         let seq = trace(&mesh, &field, &p, Par::Seq).unwrap();
         let par = trace(&mesh, &field, &p, Par::Rayon).unwrap();
         assert!(!seq.network.curves.is_empty());
         assert_eq!(seq, par);
         let bits = |o: &crestflow_nodes_ridges::TraceOutput| -> Vec<u64> {
-            o.network.vertices.iter().flat_map(|v| v.position.map(f64::to_bits).into_iter().chain([v.strength.to_bits()])).collect()
+            o.network
+                .vertices
+                .iter()
+                .flat_map(|v| {
+                    v.position
+                        .map(f64::to_bits)
+                        .into_iter()
+                        .chain([v.strength.to_bits()])
+                })
+                .collect()
         };
         assert_eq!(bits(&seq), bits(&par));
     }
@@ -161,10 +231,21 @@ fn sequential_and_parallel_agree_bit_for_bit() {
 fn exact_sphere_and_cylinder_have_no_ridges() {
     // Every point of a sphere is umbilic; the cylinder's curvatures are constant along its
     // curvature lines (e = 0): neither has an extremum to trace.
-    for shape in [AnalyticShape::Sphere { radius: 1.5 }, AnalyticShape::Cylinder { radius: 1.0, height: 3.0 }] {
+    for shape in [
+        AnalyticShape::Sphere { radius: 1.5 },
+        AnalyticShape::Cylinder {
+            radius: 1.0,
+            height: 3.0,
+        },
+    ] {
         let mesh = shape.mesh(3000, 0.3, 5).unwrap();
         let field = analytic_curvature_field(&mesh, &shape);
-        let p = TraceParams { min_strength: 0.0, min_cyclideness: 0.0, min_length: 0.0, ..Default::default() };
+        let p = TraceParams {
+            min_strength: 0.0,
+            min_cyclideness: 0.0,
+            min_length: 0.0,
+            ..Default::default()
+        };
         let out = trace(&mesh, &field, &p, Par::Rayon).unwrap();
         assert!(out.network.curves.is_empty(), "{shape:?}: {:?}", out.stats);
     }

@@ -15,20 +15,55 @@ use crestflow_nodes_ridges::{trace, TraceParams};
 fn no_ridges_on_estimated_sphere_cylinder_torus() {
     let shapes = [
         AnalyticShape::Sphere { radius: 1.0 },
-        AnalyticShape::Cylinder { radius: 1.0, height: 3.0 },
-        AnalyticShape::Torus { major: 2.0, minor: 0.7 },
+        AnalyticShape::Cylinder {
+            radius: 1.0,
+            height: 3.0,
+        },
+        AnalyticShape::Torus {
+            major: 2.0,
+            minor: 0.7,
+        },
     ];
     for shape in shapes {
         let mesh = shape.mesh(4000, 0.3, 21).unwrap();
-        let field = polynomial_curvature(&mesh, &PolynomialParams::default(), Par::Rayon).unwrap().field;
-        let raw = trace(&mesh, &field, &TraceParams { min_strength: 0.0, min_cyclideness: 0.0, min_length: 0.0, ..Default::default() }, Par::Rayon).unwrap();
+        let field = polynomial_curvature(&mesh, &PolynomialParams::default(), Par::Rayon)
+            .unwrap()
+            .field;
+        let raw = trace(
+            &mesh,
+            &field,
+            &TraceParams {
+                min_strength: 0.0,
+                min_cyclideness: 0.0,
+                min_length: 0.0,
+                ..Default::default()
+            },
+            Par::Rayon,
+        )
+        .unwrap();
         let out = trace(&mesh, &field, &TraceParams::default(), Par::Rayon).unwrap();
-        println!("{shape:?}: unfiltered {:?}\n  default {:?}", raw.stats, out.stats);
+        println!(
+            "{shape:?}: unfiltered {:?}\n  default {:?}",
+            raw.stats, out.stats
+        );
         assert!(out.network.curves.is_empty(), "{shape:?}: {:?}", out.stats);
         // Either filter alone removes them: the lines are not sharper than the surface around
         // them, and the surface is a Dupin cyclide (small cyclideness integral).
-        let by_cyclideness = trace(&mesh, &field, &TraceParams { min_strength: 0.0, ..Default::default() }, Par::Rayon).unwrap();
-        assert!(by_cyclideness.network.curves.is_empty(), "{shape:?}: {:?}", by_cyclideness.stats);
+        let by_cyclideness = trace(
+            &mesh,
+            &field,
+            &TraceParams {
+                min_strength: 0.0,
+                ..Default::default()
+            },
+            Par::Rayon,
+        )
+        .unwrap();
+        assert!(
+            by_cyclideness.network.curves.is_empty(),
+            "{shape:?}: {:?}",
+            by_cyclideness.stats
+        );
         if raw.network.curves.is_empty() {
             // The sphere: every vertex is (numerically) umbilic and skipped.
             assert_eq!(raw.stats.ridge_points + raw.stats.ravine_points, 0);
@@ -41,7 +76,9 @@ fn estimated_ellipsoid_ridge_is_the_ab_ellipse() {
     let (a, b, c) = (3.0, 2.0, 1.0);
     let shape = AnalyticShape::Ellipsoid { a, b, c };
     let mesh = shape.mesh(10242, 0.3, 11).unwrap();
-    let field = polynomial_curvature(&mesh, &PolynomialParams::default(), Par::Rayon).unwrap().field;
+    let field = polynomial_curvature(&mesh, &PolynomialParams::default(), Par::Rayon)
+        .unwrap()
+        .field;
     let out = trace(&mesh, &field, &TraceParams::default(), Par::Rayon).unwrap();
     let tol = 0.01 * mesh.bbox_diagonal();
     let n = 4000;
@@ -53,8 +90,17 @@ fn estimated_ellipsoid_ridge_is_the_ab_ellipse() {
         .collect();
     let ridges = segments(&out.network, Some(CurveLabel::Ridge));
     let cov = coverage(&xy, &ridges, tol);
-    let far = out.network.vertices.iter().filter(|v| dist_to_polyline(v.position, &xy) > tol).count();
-    println!("{:?}\ncoverage {cov}, far {far} of {}", out.stats, out.network.vertices.len());
+    let far = out
+        .network
+        .vertices
+        .iter()
+        .filter(|v| dist_to_polyline(v.position, &xy) > tol)
+        .count();
+    println!(
+        "{:?}\ncoverage {cov}, far {far} of {}",
+        out.stats,
+        out.network.vertices.len()
+    );
     assert!(cov >= 0.9, "coverage {cov}");
     assert_eq!(far, 0);
 }

@@ -8,7 +8,10 @@ use crestflow_geom::{CurvatureField, CurveLabel, SurfacePoint, TriMesh};
 use crestflow_nodes_ridges::{trace, Definition, TraceError, TraceParams};
 
 fn one_triangle() -> TriMesh {
-    TriMesh::new(vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], vec![[0, 1, 2]])
+    TriMesh::new(
+        vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+        vec![[0, 1, 2]],
+    )
 }
 
 fn flat_field(n: usize) -> CurvatureField {
@@ -25,7 +28,12 @@ fn flat_field(n: usize) -> CurvatureField {
 }
 
 fn all_params() -> TraceParams {
-    TraceParams { min_strength: 0.0, min_cyclideness: 0.0, min_length: 0.0, ..Default::default() }
+    TraceParams {
+        min_strength: 0.0,
+        min_cyclideness: 0.0,
+        min_length: 0.0,
+        ..Default::default()
+    }
 }
 
 #[test]
@@ -36,15 +44,26 @@ fn nan_in_the_field_names_quantity_and_vertex() {
     field.e_max[37] = f64::NAN;
     let err = trace(&mesh, &field, &TraceParams::default(), Par::Rayon).unwrap_err();
     match &err {
-        TraceError::NonFiniteField { quantity: "e_max", vertex: 37, value } => assert!(value.is_nan()),
+        TraceError::NonFiniteField {
+            quantity: "e_max",
+            vertex: 37,
+            value,
+        } => assert!(value.is_nan()),
         other => panic!("{other:?}"),
     }
-    assert!(err.to_string().contains("e_max") && err.to_string().contains("vertex 37"), "{err}");
+    assert!(
+        err.to_string().contains("e_max") && err.to_string().contains("vertex 37"),
+        "{err}"
+    );
 
     let mut field = profile.field(&mesh);
     field.t_min[5][2] = f64::INFINITY;
     match trace(&mesh, &field, &TraceParams::default(), Par::Rayon) {
-        Err(TraceError::NonFiniteField { quantity: "t_min", vertex: 5, value }) => assert!(value.is_infinite()),
+        Err(TraceError::NonFiniteField {
+            quantity: "t_min",
+            vertex: 5,
+            value,
+        }) => assert!(value.is_infinite()),
         other => panic!("{other:?}"),
     }
 }
@@ -56,16 +75,27 @@ fn field_of_the_wrong_size_is_rejected() {
     field.k_min.pop();
     assert_eq!(
         trace(&mesh, &field, &all_params(), Par::Seq).unwrap_err(),
-        TraceError::FieldSize { quantity: "k_min", field: 2, mesh: 3 }
+        TraceError::FieldSize {
+            quantity: "k_min",
+            field: 2,
+            mesh: 3
+        }
     );
 }
 
 #[test]
 fn bad_meshes_are_rejected_before_connectivity_is_built() {
-    let bad = TriMesh::new(vec![[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], vec![[0, 1, 2], [2, 1, 7]]);
+    let bad = TriMesh::new(
+        vec![[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+        vec![[0, 1, 2], [2, 1, 7]],
+    );
     assert_eq!(
         trace(&bad, &flat_field(3), &all_params(), Par::Seq).unwrap_err(),
-        TraceError::FaceIndex { face: 1, index: 7, n_vertices: 3 }
+        TraceError::FaceIndex {
+            face: 1,
+            index: 7,
+            n_vertices: 3
+        }
     );
     let mut nan = one_triangle();
     nan.positions[2][0] = f64::NAN;
@@ -92,16 +122,25 @@ fn empty_and_tiny_meshes() {
     let out = trace(&mesh, &field, &all_params(), Par::Seq).unwrap();
     assert_eq!(out.network.curves.len(), 1);
     let c = &out.network.curves[0];
-    assert_eq!((c.vertices.len(), c.closed, c.label), (2, false, CurveLabel::Ridge));
+    assert_eq!(
+        (c.vertices.len(), c.closed, c.label),
+        (2, false, CurveLabel::Ridge)
+    );
     for v in &out.network.vertices {
-        let SurfacePoint::Edge { a, b, t } = v.location else { panic!() };
+        let SurfacePoint::Edge { a, b, t } = v.location else {
+            panic!()
+        };
         assert_eq!(a, 0);
         assert!(b == 1 || b == 2);
         assert!((t - 0.5).abs() < 1e-12);
     }
     // The same with e increasing along t is a minimum of k_max: nothing under Def. 2.2.
     field.e_max = vec![-1.0, 1.0, 1.0];
-    assert!(trace(&mesh, &field, &all_params(), Par::Seq).unwrap().network.curves.is_empty());
+    assert!(trace(&mesh, &field, &all_params(), Par::Seq)
+        .unwrap()
+        .network
+        .curves
+        .is_empty());
 
     // Vertex 1 against 0 and 2: sign changes on edges 0-1 and 1-2, a maximum along t.
     field.e_max = vec![1.0, -1.0, 1.0];
@@ -126,7 +165,10 @@ fn trisector_joins_three_points_at_their_centroid() {
     field.t_max = vec![dir(0.0), dir(120.0), dir(240.0)];
     field.t_min = vec![dir(90.0), dir(210.0), dir(330.0)];
     field.e_max = vec![1.0, 1.0, 1.0];
-    let p = TraceParams { definition: Definition::Extrema, ..all_params() };
+    let p = TraceParams {
+        definition: Definition::Extrema,
+        ..all_params()
+    };
     let out = trace(&mesh, &field, &p, Par::Seq).unwrap();
     assert_eq!(out.stats.trisectors, 1);
     assert_eq!(out.network.curves.len(), 3);
@@ -134,16 +176,27 @@ fn trisector_joins_three_points_at_their_centroid() {
     // Three one-segment arcs between an edge point (valence 1) and the shared centre
     // (valence 3).
     let val = net.valence();
-    let centre = (0..net.vertices.len()).find(|&v| val[v] == 3).expect("a valence-3 vertex") as u32;
-    assert!(net.curves.iter().all(|c| c.vertices.len() == 2 && c.vertices.contains(&centre)));
+    let centre = (0..net.vertices.len())
+        .find(|&v| val[v] == 3)
+        .expect("a valence-3 vertex") as u32;
+    assert!(net
+        .curves
+        .iter()
+        .all(|c| c.vertices.len() == 2 && c.vertices.contains(&centre)));
     assert_eq!(net.valence()[centre as usize], 3);
     let cv = &net.vertices[centre as usize];
-    let SurfacePoint::Face { f: 0, bary } = cv.location else { panic!("{:?}", cv.location) };
+    let SurfacePoint::Face { f: 0, bary } = cv.location else {
+        panic!("{:?}", cv.location)
+    };
     assert!((bary.iter().sum::<f64>() - 1.0).abs() < 1e-12);
     let from_bary = [0, 1, 2].map(|k| (0..3).map(|i| bary[i] * mesh.positions[i][k]).sum::<f64>());
     let mut centroid = [0.0; 3];
     for c in &net.curves {
-        let end = if c.vertices[0] == centre { c.vertices[1] } else { c.vertices[0] };
+        let end = if c.vertices[0] == centre {
+            c.vertices[1]
+        } else {
+            c.vertices[0]
+        };
         let p = net.vertices[end as usize].position;
         for k in 0..3 {
             centroid[k] += p[k] / 3.0;
@@ -157,12 +210,54 @@ fn trisector_joins_three_points_at_their_centroid() {
 
 #[test]
 fn params_are_validated() {
-    let p = TraceParams { min_strength: -1.0, min_length: f64::NAN, umbilic_tolerance: 2.0, ..Default::default() };
+    let p = TraceParams {
+        min_strength: -1.0,
+        min_length: f64::NAN,
+        umbilic_tolerance: 2.0,
+        ..Default::default()
+    };
     let fields: Vec<String> = p.validate().into_iter().map(|i| i.field).collect();
-    assert_eq!(fields, vec!["min_strength", "min_length", "umbilic_tolerance"]);
+    assert_eq!(
+        fields,
+        vec!["min_strength", "min_length", "umbilic_tolerance"]
+    );
     assert!(TraceParams::default().validate().is_empty());
     // Unknown fields are rejected when a pipeline file is read.
     assert!(ron::from_str::<TraceParams>("(min_strenght: 1.0)").is_err());
     let parsed: TraceParams = ron::from_str("(families: Ridges, definition: Extrema)").unwrap();
     assert_eq!(parsed.definition, Definition::Extrema);
+}
+
+#[test]
+fn nonmanifold_and_degenerate_faces_do_not_break_tracing() {
+    // Three triangles share edge 0-1 (a non-manifold fin) and e changes sign across that edge
+    // (vertex 0 vs 1): one feature point on the shared edge, three segments leave it.
+    let mesh = TriMesh::new(
+        vec![
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.5, 1.0, 0.0],
+            [0.5, -1.0, 0.0],
+            [0.5, 0.0, 1.0],
+        ],
+        vec![[0, 1, 2], [1, 0, 3], [0, 1, 4], [2, 2, 4]],
+    );
+    assert_eq!(mesh.topology().nonmanifold_edges.len(), 1);
+    let mut field = flat_field(5);
+    // t along +x everywhere; e decreasing along x: vertex 0 positive, all others negative.
+    field.e_max = vec![1.0, -1.0, -1.0, -1.0, -1.0];
+    let out = trace(&mesh, &field, &all_params(), Par::Seq).unwrap();
+    let val = out.network.valence();
+    assert_eq!(
+        val.iter().filter(|&&v| v == 3).count(),
+        1,
+        "{:?}",
+        out.network
+    );
+    assert_eq!(out.network.curves.len(), 3);
+    // Seq and Rayon agree here too.
+    assert_eq!(
+        out,
+        trace(&mesh, &field, &all_params(), Par::Rayon).unwrap()
+    );
 }

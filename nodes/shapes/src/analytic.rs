@@ -33,7 +33,12 @@ pub struct AnalyticParams {
 
 impl Default for AnalyticParams {
     fn default() -> Self {
-        AnalyticParams { shape: AnalyticShape::default(), vertices: 10_000, jitter: 0.0, seed: 0 }
+        AnalyticParams {
+            shape: AnalyticShape::default(),
+            vertices: 10_000,
+            jitter: 0.0,
+            seed: 0,
+        }
     }
 }
 
@@ -52,7 +57,9 @@ impl Validate for AnalyticParams {
 /// Builds the mesh of `params.shape` (see [`AnalyticShape::mesh`]). Single-threaded: the
 /// generators are linear-time and cheap next to any consumer.
 pub fn analytic_mesh(params: &AnalyticParams, _par: Par) -> Result<TriMesh, ShapeError> {
-    params.shape.mesh(params.vertices, params.jitter, params.seed)
+    params
+        .shape
+        .mesh(params.vertices, params.jitter, params.seed)
 }
 
 /// The `shapes.analytic` node.
@@ -71,7 +78,10 @@ impl NodeKind for AnalyticNode {
         Vec::new()
     }
     fn outputs() -> Vec<Port> {
-        vec![Port::of::<TriMesh>("mesh", "the sampled shape, triangles facing outwards")]
+        vec![Port::of::<TriMesh>(
+            "mesh",
+            "the sampled shape, triangles facing outwards",
+        )]
     }
     fn run(params: &Self::Params, _inputs: &Inputs, ctx: &Ctx) -> Result<Outputs, NodeError> {
         let mesh = analytic_mesh(params, ctx.par)
@@ -89,16 +99,29 @@ mod tests {
         let p: AnalyticParams =
             ron::from_str("(shape: Torus(major: 1.0, minor: 0.35), vertices: 5000, jitter: 0.3)")
                 .unwrap();
-        assert_eq!(p.shape, AnalyticShape::Torus { major: 1.0, minor: 0.35 });
+        assert_eq!(
+            p.shape,
+            AnalyticShape::Torus {
+                major: 1.0,
+                minor: 0.35
+            }
+        );
         assert_eq!(p.seed, 0);
         assert!(p.validate().is_empty());
         let mesh = analytic_mesh(&p, Par::Seq).unwrap();
         // ~5000 vertices on a grid sized by the radii ratio.
-        assert!((4500..=5500).contains(&mesh.n_vertices()), "{}", mesh.n_vertices());
+        assert!(
+            (4500..=5500).contains(&mesh.n_vertices()),
+            "{}",
+            mesh.n_vertices()
+        );
         assert!(ron::from_str::<AnalyticParams>("(radius: 1.0)").is_err());
 
         let bad = AnalyticParams {
-            shape: AnalyticShape::Torus { major: 0.2, minor: 0.35 },
+            shape: AnalyticShape::Torus {
+                major: 0.2,
+                minor: 0.35,
+            },
             vertices: 3,
             jitter: 0.9,
             seed: 0,
@@ -130,6 +153,9 @@ mod tests {
         let out = AnalyticNode::run(&p, &Inputs::new(), &ctx).unwrap();
         let mesh = out.get("mesh").unwrap().downcast_ref::<TriMesh>().unwrap();
         assert_eq!(mesh.n_vertices(), 642);
-        assert!(mesh.positions.iter().all(|p| (crestflow_geom::vec3::norm(*p) - 2.0).abs() < 1e-12));
+        assert!(mesh
+            .positions
+            .iter()
+            .all(|p| (crestflow_geom::vec3::norm(*p) - 2.0).abs() < 1e-12));
     }
 }

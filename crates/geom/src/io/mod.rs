@@ -18,7 +18,7 @@
 //! | several connected components, boundary edges, zero-area faces | reported in [`LoadReport`] |
 //!
 //! Writers ([`save_mesh_ply`], [`save_mesh_obj`], [`save_curves_ply`], [`save_curves_obj`])
-//! produce files MeshLab and Blender open; [`load_curves_ply`] reads curve files back.
+//! produce files for MeshLab and Blender; [`load_curves_ply`] reads curve files back.
 //!
 //! The curves are the feature curve networks of thesis §2.5 (Def. 2.1); the curvature colours
 //! show the mean curvature of §2.1.

@@ -637,24 +637,56 @@ fn cut_and_corrupted_files_never_panic() {
         .iter()
         .map(|t| t.map(|i| p[i as usize]))
         .collect();
-    let samples: Vec<(&str, Vec<u8>)> = vec![
-        ("off", TETRA_OFF.as_bytes().to_vec()),
-        ("ply", binary_tetra_ply()),
-        ("stl", stl_binary(b"solid", &tris)),
+    let mut ascii_stl = String::from("solid t\n");
+    for t in &tris {
+        ascii_stl.push_str("facet normal 0 0 0\nouter loop\n");
+        for v in t {
+            ascii_stl.push_str(&format!("vertex {} {} {}\n", v[0], v[1], v[2]));
+        }
+        ascii_stl.push_str("endloop\nendfacet\n");
+    }
+    ascii_stl.push_str("endsolid t\n");
+    let mut ascii_ply = String::from(
+        "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n\
+         property float z\nelement face 4\nproperty list uchar int vertex_indices\nend_header\n",
+    );
+    for p in TETRA_POS {
+        ascii_ply.push_str(&format!("{} {} {}\n", p[0], p[1], p[2]));
+    }
+    for t in TETRA_TRIS {
+        ascii_ply.push_str(&format!("3 {} {} {}\n", t[0], t[1], t[2]));
+    }
+    // (extension, bytes, how long a prefix may be and still fail for sure)
+    let samples: Vec<(&str, Vec<u8>, usize)> = vec![
+        ("off", TETRA_OFF.as_bytes().to_vec(), TETRA_OFF.len() - 1),
+        ("ply", binary_tetra_ply(), binary_tetra_ply().len()),
+        ("ply", ascii_ply.as_bytes().to_vec(), ascii_ply.len() - 1),
+        ("stl", stl_binary(b"solid", &tris), 84 + 50 * 4),
+        // Cut inside the closing `endsolid t`, the file is still complete.
+        (
+            "stl",
+            ascii_stl.as_bytes().to_vec(),
+            ascii_stl.find("endsolid").unwrap(),
+        ),
         (
             "obj",
             b"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n".to_vec(),
+            0,
         ),
     ];
     let mut seed = 7u64;
-    for (ext, bytes) in &samples {
+    let opts = LoadOptions::default();
+    for (ext, bytes, must_fail_below) in &samples {
         let path = d.path().join(format!("f.{ext}"));
-        // Every proper prefix fails (the last byte of the text formats is a newline that
-        // does not matter, so leave it out of the check).
-        for cut in 0..bytes.len() - 1 {
-            std::fs::write(&path, &bytes[..cut]).unwrap();
-            let r = load(&path);
-            if *ext != "obj" {
+        let format = MeshFormat::from_path(&path).unwrap();
+        // The whole file loads; every prefix shorter than `must_fail_below` fails (OBJ has no
+        // counts, so its prefixes may be valid meshes; the text formats end in a newline that
+        // does not matter).
+        std::fs::write(&path, bytes).unwrap();
+        assert_eq!(load(&path).unwrap().mesh.n_faces(), 4, "{ext}");
+        for cut in 0..bytes.len() {
+            let r = load_mesh_bytes(&bytes[..cut], format, &path, &opts);
+            if cut < *must_fail_below {
                 assert!(r.is_err(), "{ext} cut at {cut} loaded");
             }
         }
@@ -665,8 +697,7 @@ fn cut_and_corrupted_files_never_panic() {
                 let i = (lcg(&mut seed) as usize) % b.len();
                 b[i] = lcg(&mut seed) as u8;
             }
-            std::fs::write(&path, &b).unwrap();
-            let _ = load(&path);
+            let _ = load_mesh_bytes(&b, format, &path, &opts);
         }
     }
 }
@@ -707,6 +738,8 @@ fn mesh_ply_round_trip_keeps_positions_and_curvature() {
             };
             assert_eq!(get("k_max"), field.k_max[v]);
             assert_eq!(get("k_min"), field.k_min[v]);
+            // k_max = v/2 - 1, k_min = -v/4: H = v/8 - 1/2, exact in f32.
+            assert_eq!(get("quality"), v as f64 / 8.0 - 0.5);
             let rgb = ["red", "green", "blue"].map(|n| match e[n] {
                 ply_rs_bw::ply::Property::UChar(x) => x,
                 ref p => panic!("{p:?}"),
@@ -821,7 +854,7 @@ fn curves_ply_round_trip() {
 }
 
 #[test]
-fn curves_obj_has_labelled_groups_and_polylines() {
+fn curves_obj_has_labelled_groups_and_edges() {
     let d = tempfile::tempdir().unwrap();
     let out = d.path().join("curves.obj");
     save_curves_obj(&out, &network()).unwrap();
@@ -829,7 +862,20 @@ fn curves_obj_has_labelled_groups_and_polylines() {
     let groups: Vec<&str> = text.lines().filter(|l| l.starts_with("g ")).collect();
     assert_eq!(groups, ["g ridge_0", "g ravine_1", "g other_2"]);
     let lines: Vec<&str> = text.lines().filter(|l| l.starts_with("l ")).collect();
-    assert_eq!(lines, ["l 1 2 3 4", "l 4 5 6 4", "l 4 7 6 4"]);
+    // Ridge 0-1-2-3, closed ravine 3-4-5(-3), open 3-6-5-3; 1-based.
+    let expected = [
+        "l 1 2", "l 2 3", "l 3 4", "l 4 5", "l 5 6", "l 6 4", "l 4 7", "l 7 6", "l 6 4",
+    ];
+    assert_eq!(lines, expected);
+    // Each group holds its curve's edges.
+    let ravine = text
+        .split("g ravine_1\n")
+        .nth(1)
+        .unwrap()
+        .split("g ")
+        .next()
+        .unwrap();
+    assert_eq!(ravine.lines().count(), 3);
     let positions: Vec<[f64; 3]> = text
         .lines()
         .filter_map(|l| l.strip_prefix("v "))

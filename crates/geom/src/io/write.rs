@@ -122,8 +122,9 @@ fn check_field(
     Ok(())
 }
 
-/// Binary little-endian PLY. With a curvature field, every vertex also carries `k_max`, `k_min`
-/// (float) and `red green blue` (uchar, [`curvature_colors`]).
+/// Binary little-endian PLY. With a curvature field, every vertex also carries `k_max`, `k_min`,
+/// `quality` = mean curvature (float; MeshLab shows `quality` as a colour ramp and histogram) and
+/// `red green blue` (uchar, [`curvature_colors`]).
 pub fn save_mesh_ply(
     path: impl AsRef<Path>,
     mesh: &TriMesh,
@@ -145,7 +146,7 @@ pub fn save_mesh_ply(
     );
     if curvature.is_some() {
         out.extend_from_slice(
-            b"property float k_max\nproperty float k_min\n\
+            b"property float k_max\nproperty float k_min\nproperty float quality\n\
               property uchar red\nproperty uchar green\nproperty uchar blue\n",
         );
     }
@@ -162,6 +163,7 @@ pub fn save_mesh_ply(
         if let (Some(f), Some(col)) = (curvature, &colors) {
             out.extend_from_slice(&(f.k_max[v] as f32).to_le_bytes());
             out.extend_from_slice(&(f.k_min[v] as f32).to_le_bytes());
+            out.extend_from_slice(&(f.mean(v) as f32).to_le_bytes());
             out.extend_from_slice(&col[v]);
         }
     }
@@ -306,10 +308,11 @@ pub fn save_curves_ply(path: impl AsRef<Path>, net: &FeatureCurveNetwork) -> Res
     write_atomic(path, &out)
 }
 
-/// Wavefront OBJ of a feature curve network: the vertices, then one `l` polyline per curve in a
-/// group `ridge_<i>`, `ravine_<i>` or `other_<i>` (`i` = curve index; a loop repeats its first
-/// vertex at the end). Blender imports the groups as separate edge objects. Curves with fewer
-/// than two vertices have no polyline and are left out.
+/// Wavefront OBJ of a feature curve network: the vertices, then per curve a group
+/// `ridge_<i>`, `ravine_<i>` or `other_<i>` (`i` = curve index) holding its edges as two-vertex
+/// `l` lines (the closing edge of a loop included). Blender imports the groups as edge objects;
+/// two-vertex lines are used because MeshLab keeps only the first segment of a longer `l`.
+/// Curves with fewer than two vertices have no edges and are left out.
 pub fn save_curves_obj(path: impl AsRef<Path>, net: &FeatureCurveNetwork) -> Result<(), MeshError> {
     let path = path.as_ref();
     check_network(path, net)?;
@@ -325,18 +328,14 @@ pub fn save_curves_obj(path: impl AsRef<Path>, net: &FeatureCurveNetwork) -> Res
         let _ = writeln!(out, "v {} {} {}", p[0], p[1], p[2]);
     }
     for (c, curve) in net.curves.iter().enumerate() {
-        if curve.vertices.len() < 2 {
+        let edges = net.curve_edges(c);
+        if edges.is_empty() {
             continue;
         }
         let _ = writeln!(out, "g {}_{c}", label_name(curve.label));
-        out.push(b'l');
-        for &v in &curve.vertices {
-            let _ = write!(out, " {}", v + 1);
+        for (a, b) in edges {
+            let _ = writeln!(out, "l {} {}", a + 1, b + 1);
         }
-        if curve.closed && curve.vertices.len() > 2 {
-            let _ = write!(out, " {}", curve.vertices[0] + 1);
-        }
-        out.push(b'\n');
     }
     write_atomic(path, &out)
 }

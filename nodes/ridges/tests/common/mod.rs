@@ -9,7 +9,11 @@ use crestflow_geom::{CurveLabel, FeatureCurveNetwork};
 pub fn point_segment(p: V3, a: V3, b: V3) -> f64 {
     let ab = vec3::sub(b, a);
     let l2 = vec3::dot(ab, ab);
-    let t = if l2 > 0.0 { (vec3::dot(vec3::sub(p, a), ab) / l2).clamp(0.0, 1.0) } else { 0.0 };
+    let t = if l2 > 0.0 {
+        (vec3::dot(vec3::sub(p, a), ab) / l2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
     vec3::dist(p, vec3::lerp(a, b, t))
 }
 
@@ -21,7 +25,10 @@ pub fn segments(net: &FeatureCurveNetwork, label: Option<CurveLabel>) -> Vec<(V3
             continue;
         }
         for (a, b) in net.curve_edges(c) {
-            out.push((net.vertices[a as usize].position, net.vertices[b as usize].position));
+            out.push((
+                net.vertices[a as usize].position,
+                net.vertices[b as usize].position,
+            ));
         }
     }
     out
@@ -29,7 +36,9 @@ pub fn segments(net: &FeatureCurveNetwork, label: Option<CurveLabel>) -> Vec<(V3
 
 /// Distance from `p` to the nearest segment (infinity when there is none).
 pub fn dist_to_segments(p: V3, segs: &[(V3, V3)]) -> f64 {
-    segs.iter().map(|&(a, b)| point_segment(p, a, b)).fold(f64::INFINITY, f64::min)
+    segs.iter()
+        .map(|&(a, b)| point_segment(p, a, b))
+        .fold(f64::INFINITY, f64::min)
 }
 
 /// Fraction of the reference polyline `reference` (closed) whose points lie within `tol` of the
@@ -94,7 +103,10 @@ impl<F: Fn(f64) -> (f64, f64, f64)> Profile<F> {
         let n = 200_000;
         let xs: Vec<f64> = (0..=n).map(|i| -1.0 + 2.0 * i as f64 / n as f64).collect();
         let k: Vec<f64> = xs.iter().map(|&x| self.kappa(x).abs()).collect();
-        (1..n).filter(|&i| k[i] > k[i - 1] && k[i] >= k[i + 1]).map(|i| xs[i]).collect()
+        (1..n)
+            .filter(|&i| k[i] > k[i - 1] && k[i] >= k[i + 1])
+            .map(|i| xs[i])
+            .collect()
     }
 
     /// Bound on the error of the zero of the linear interpolant of e between x_a and x_b
@@ -105,7 +117,11 @@ impl<F: Fn(f64) -> (f64, f64, f64)> Profile<F> {
         let (mut m1, mut m2) = (f64::INFINITY, 0.0f64);
         for i in 0..=200 {
             let x = lo + (hi - lo) * i as f64 / 200.0;
-            let (em, e0, ep) = (self.extremality(x - d), self.extremality(x), self.extremality(x + d));
+            let (em, e0, ep) = (
+                self.extremality(x - d),
+                self.extremality(x),
+                self.extremality(x + d),
+            );
             m1 = m1.min(((ep - em) / (2.0 * d)).abs());
             m2 = m2.max(((ep - 2.0 * e0 + em) / (d * d)).abs());
         }
@@ -153,7 +169,10 @@ impl<F: Fn(f64) -> (f64, f64, f64)> Profile<F> {
     /// the profile curvature is dκ/ds = κ'(x)/w (central differences of the closed form), that
     /// of the ruling is 0.
     pub fn field(&self, mesh: &TriMesh) -> CurvatureField {
-        let mut f = CurvatureField { method: "analytic.profile".into(), ..Default::default() };
+        let mut f = CurvatureField {
+            method: "analytic.profile".into(),
+            ..Default::default()
+        };
         for p in &mesh.positions {
             let x = p[0];
             let (_, d1, _) = (self.0)(x);
