@@ -212,6 +212,10 @@ fn a_corrupt_blob_is_recomputed_when_needed() {
     // Same length, different bytes: decodes fine, but no longer matches its digest.
     bytes[100] ^= 0x55;
     std::fs::write(blob_path(&cache, &d), bytes).unwrap();
+    // A fully cached rerun never reads the blob (values load lazily): no warning.
+    let (_, ev) = run_file(&g, &reg, opts());
+    assert_eq!(with_status(&ev, Status::Cached).len(), 3);
+    assert_eq!(warnings(&ev), Vec::<String>::new());
     // Editing `vs` makes it run, so it needs `a`'s cached value.
     write(
         dir.path(),
@@ -553,4 +557,67 @@ fn a_version_bump_reruns_the_node_and_says_so() {
     assert_eq!(with_status(&ev, Status::Ran), names(&["c", "k"]));
     assert_eq!(s.node("c").unwrap().reason, "version changed: 1 -> 2");
     assert_eq!(with_status(&ev, Status::Cached).len(), 4);
+}
+
+/// The order of NodeStarted / NodeFinished events of the named nodes.
+fn starts_and_ends(events: &[Event], of: &[&str]) -> Vec<String> {
+    events
+        .iter()
+        .filter_map(|e| match e {
+            Event::NodeStarted { node, .. } if of.contains(&node.as_str()) => {
+                Some(format!("start {node}"))
+            }
+            Event::NodeFinished { node, .. } if of.contains(&node.as_str()) => {
+                Some(format!("end {node}"))
+            }
+            _ => None,
+        })
+        .collect()
+}
+
+#[test]
+fn independent_nodes_run_in_parallel_on_one_pool() {
+    let reg = toy_registry();
+    let dir = tempdir();
+    let g = write(
+        dir.path(),
+        "g.ron",
+        r#"Graph(nodes: {
+    "c": (kind: "toy.const"),
+    "x": (kind: "toy.slow", params: (steps: 20, step_ms: 10), inputs: { "x": "c.value" }),
+    "y": (kind: "toy.slow", params: (steps: 20, step_ms: 10), inputs: { "x": "c.value" }),
+    "pool": (kind: "toy.pool_threads"),
+})"#,
+    );
+    // Two threads: both slow nodes start before either ends.
+    let o = RunOptions {
+        threads: 2,
+        use_cache: false,
+        ..Default::default()
+    };
+    let (s, ev) = run_file(&g, &reg, o);
+    let order = starts_and_ends(&ev, &["x", "y"]);
+    assert!(
+        order[0].starts_with("start") && order[1].starts_with("start"),
+        "{order:?}"
+    );
+    assert_eq!(value(&s, "pool", "threads"), 2.0);
+    // One thread: one after the other.
+    let o = RunOptions {
+        threads: 1,
+        use_cache: false,
+        ..Default::default()
+    };
+    let (s, ev) = run_file(&g, &reg, o);
+    let order = starts_and_ends(&ev, &["x", "y"]);
+    assert_eq!(order, ["start x", "end x", "start y", "end y"]);
+    assert_eq!(value(&s, "pool", "threads"), 1.0);
+    // Three threads: nodes see the executor's pool.
+    let o = RunOptions {
+        threads: 3,
+        use_cache: false,
+        ..Default::default()
+    };
+    let (s, _) = run_file(&g, &reg, o);
+    assert_eq!(value(&s, "pool", "threads"), 3.0);
 }

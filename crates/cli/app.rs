@@ -217,11 +217,9 @@ fn cache_cmd(action: CacheAction) -> i32 {
     };
     let dir = cache_dir(args.graph.as_deref(), args.cache.as_deref());
     if !dir.exists() {
+        // Nothing to show or clean: not an error.
         eprintln!("no cache at {}", dir.display());
-        return match action {
-            CacheAction::Stats(_) => 0,
-            _ => 0,
-        };
+        return 0;
     }
     let store = match CacheStore::open(&dir) {
         Ok(s) => s,
@@ -618,6 +616,7 @@ impl Renderer {
                 status,
                 ms,
                 error,
+                reason,
                 ..
             } => {
                 self.running.remove(node);
@@ -627,6 +626,8 @@ impl Renderer {
                 let mut s = format!("{:>8} {node} ({})", status.as_str(), human_ms(*ms));
                 if let Some(err) = error {
                     s.push_str(&format!(": {err}"));
+                } else if *status == Status::Skipped {
+                    s.push_str(&format!(": {reason}"));
                 }
                 self.line(&s);
             }
@@ -725,11 +726,12 @@ impl Renderer {
                     .error
                     .clone()
                     .unwrap_or((crestflow_flow::ErrorKind::Internal, "unknown error".into()));
-                let loc = plan
-                    .file
-                    .as_ref()
-                    .map(|f| format!(" ({})", f.display()))
-                    .unwrap_or_default();
+                let at = plan.index_of(&o.name).and_then(|i| plan.nodes[i].location);
+                let loc = match (&plan.file, at) {
+                    (Some(f), Some((l, c))) => format!(" at {}:{l}:{c}", f.display()),
+                    (Some(f), None) => format!(" in {}", f.display()),
+                    _ => String::new(),
+                };
                 let _ = writeln!(err, "  {} [{}]{loc}: {k}: {m}", o.name, o.kind);
             }
             let skipped = s.count(Status::Skipped);

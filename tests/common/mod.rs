@@ -321,6 +321,25 @@ impl NodeKind for MakeReport {
     }
 }
 
+/// `toy.pool_threads`: how many threads the pool the node runs in has (nodes must use the
+/// executor's pool, not one of their own).
+pub struct PoolThreads;
+impl NodeKind for PoolThreads {
+    type Params = NoParams;
+    const KIND: &'static str = "toy.pool_threads";
+    const VERSION: u32 = 1;
+    const DOC: &'static str = "Reports the size of the current rayon pool.";
+    fn inputs() -> Vec<Port> {
+        vec![]
+    }
+    fn outputs() -> Vec<Port> {
+        vec![Port::of::<f64>("threads", "rayon::current_num_threads()")]
+    }
+    fn run(_: &NoParams, _: &Inputs, _: &Ctx) -> Result<Outputs, NodeError> {
+        Ok(Outputs::new().with("threads", rayon::current_num_threads() as f64))
+    }
+}
+
 /// A registry with the toy family.
 pub fn toy_registry() -> Registry {
     let mut r = Registry::new();
@@ -329,6 +348,7 @@ pub fn toy_registry() -> Registry {
         .add::<Round>()
         .add::<SumVec>()
         .add::<VecSum>()
+        .add::<PoolThreads>()
         .add::<ReadFile>()
         .add::<WriteText>()
         .add::<Fail>()

@@ -1035,6 +1035,9 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary, RunError> {
                         (out, rec)
                     }
                 };
+                // Emitted here, on the worker, so that the log orders it before anything
+                // this thread does next.
+                shared_ref.emit(finished_event(&o));
                 let _ = tx.send((i, o, r));
             });
         };
@@ -1049,7 +1052,6 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary, RunError> {
         while running > 0 {
             let Ok((i, out, rec)) = rx.recv() else { break };
             running -= 1;
-            shared.emit(finished_event(&out));
             let _ = shared.results[i].set(out);
             let _ = shared.records[i].set(rec);
             decided.push_back(i);
@@ -1074,7 +1076,9 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary, RunError> {
                     });
                     if failed.is_some() || shared.cancel.is_cancelled() {
                         let nd = &plan.nodes[k];
+                        // After a cancel, upstream failures are usually the cancel itself.
                         let reason = match &failed {
+                            _ if shared.cancel.is_cancelled() => "the run was cancelled".into(),
                             Some(f) => format!("upstream node `{f}` failed"),
                             None => "the run was cancelled".into(),
                         };

@@ -1,6 +1,6 @@
 //! The graph model: named nodes with a kind, parameter text and input edges, plus graph-level
 //! parameters. It is built from a RON pipeline file ([`Graph::from_ron`], DESIGN §3) or in code
-//! ([`Graph::new`] and [`Graph::node`]); [`crate::load`] turns it into a checked [`crate::Plan`].
+//! ([`Graph::new`] and [`Graph::node`]); [`crate::load()`] turns it into a checked [`crate::Plan`].
 
 use std::ops::Range;
 use std::path::{Path, PathBuf};

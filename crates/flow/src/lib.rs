@@ -1,5 +1,5 @@
 //! crestflow-flow: the engine. Typed nodes ([`NodeKind`]), an explicit [`Registry`], RON
-//! pipeline files loaded with locations ([`Graph`], [`load`]), a planner on petgraph
+//! pipeline files loaded with locations ([`Graph`], [`load()`]), a planner on petgraph
 //! ([`Plan`]), a parallel executor on rayon ([`run`]) with a content-addressed on-disk cache
 //! ([`CacheStore`]), and events over crossbeam channels ([`Event`]).
 //!

@@ -37,6 +37,8 @@ pub struct PlannedNode<'r> {
     pub outputs: Vec<Port>,
     /// Nodes that read one of this node's outputs.
     pub dependents: Vec<usize>,
+    /// 1-based line and column of the node's name in the pipeline file, when it has one.
+    pub location: Option<(usize, usize)>,
 }
 
 /// An input edge: `port` reads `from_port` of node `from`.
@@ -288,6 +290,10 @@ pub fn load<'r>(
             inputs: es,
             outputs: kind.outputs(),
             dependents: Vec::new(),
+            location: match (&graph.source, &n.name_span) {
+                (Some(src), Some(span)) => Some(spanned::line_col(src, span.start)),
+                _ => None,
+            },
         });
     }
     for i in 0..nodes.len() {

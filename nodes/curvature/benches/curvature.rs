@@ -104,9 +104,7 @@ fn median_us_per_vertex(mesh: &TriMesh, threads: usize, f: Job) -> (f64, Vec<f64
 fn accuracy(n: usize) {
     let mesh = TORUS.mesh(n, 0.35, 1).expect("torus");
     let exact = analytic_curvature_field(&mesh, &TORUS);
-    let fast = PolynomialParams { refine_normals: false, ..Default::default() };
     let poly = polynomial_curvature(&mesh, &PolynomialParams::default(), Par::Rayon).expect("fit");
-    let poly_fast = polynomial_curvature(&mesh, &fast, Par::Rayon).expect("fit");
     let so =
         shape_operator_curvature(&mesh, &ShapeOperatorParams::default(), Par::Rayon).expect("so");
     for (name, f) in [
@@ -167,13 +165,8 @@ fn main() {
             shape_operator_curvature(m, &ShapeOperatorParams::default(), Par::Rayon)
                 .expect("shape operator");
         };
-        let poly_fast = |m: &TriMesh| {
-            let p = PolynomialParams { refine_normals: false, ..Default::default() };
-            polynomial_curvature(m, &p, Par::Rayon).expect("polynomial");
-        };
-        let methods: [(&str, Job); 3] = [
+        let methods: [(&str, Job); 2] = [
             ("curvature.polynomial", &poly),
-            ("curvature.polynomial refine_normals=false", &poly_fast),
             ("curvature.shape_operator", &so),
         ];
         // CURVATURE_BENCH_ONLY=polynomial|shape_operator and CURVATURE_BENCH_THREADS=1|2 narrow

@@ -60,6 +60,27 @@ pub fn area_weighted_normals(mesh: &TriMesh) -> Vec<V3> {
     acc.into_iter().map(vec3::normalize).collect()
 }
 
+/// Unit vertex normals with the weights of Max 1999 ("Weights for computing vertex normals
+/// from facet normals"): each incident face's cross product at the vertex divided by the
+/// squared lengths of its two edges there, exact for vertices of a sphere. Zero for vertices
+/// without a non-degenerate face.
+pub fn max_weighted_normals(mesh: &TriMesh) -> Vec<V3> {
+    let mut acc = vec![[0.0; 3]; mesh.n_vertices()];
+    for t in &mesh.triangles {
+        let p = [t[0], t[1], t[2]].map(|i| mesh.positions[i as usize]);
+        for i in 0..3 {
+            let a = vec3::sub(p[(i + 1) % 3], p[i]);
+            let b = vec3::sub(p[(i + 2) % 3], p[i]);
+            let w = vec3::dot(a, a) * vec3::dot(b, b);
+            if w > 0.0 {
+                let v = t[i] as usize;
+                acc[v] = vec3::add(acc[v], vec3::scale(vec3::cross(a, b), 1.0 / w));
+            }
+        }
+    }
+    acc.into_iter().map(vec3::normalize).collect()
+}
+
 /// An orthonormal tangent pair (e1, e2) with e1 × e2 = n for unit `n`, without branches on
 /// the normal's direction except its z sign (the construction of Frisvad, revised by
 /// Duff et al. 2017).

@@ -58,13 +58,10 @@ pub struct PolynomialParams {
     /// that they do not bias the curvature and its derivatives (default 4, range 3..=4).
     pub degree: u32,
     /// Use the neighbours' normals as extra equations (GI04 adjacent-normal cubic
-    /// approximation; default true). Without them the fit uses positions only and needs more
-    /// neighbours.
+    /// approximation; default true). The normals come from a first, positions-only cubic fit
+    /// at every vertex (about a third of the cost). Without them the fit uses positions only,
+    /// needs more neighbours (the ring grows) and its extremality coefficients are noisier.
     pub use_normals: bool,
-    /// With `use_normals`: first refine the vertex normals by a positions-only cubic fit at
-    /// every vertex (default true). Twice the cost; without it the averaged face normals,
-    /// first-order accurate on irregular meshes, enter the adjacent-normal equations.
-    pub refine_normals: bool,
     /// Orient principal directions consistently across the mesh (thesis §2.5.1.1 step 2;
     /// default true).
     pub orient: bool,
@@ -76,7 +73,6 @@ impl Default for PolynomialParams {
             rings: 2,
             degree: 4,
             use_normals: true,
-            refine_normals: true,
             orient: true,
         }
     }
@@ -185,7 +181,7 @@ pub fn polynomial_curvature(
     let n = mesh.n_vertices();
     let topo = mesh.topology();
     let mut normals = area_weighted_normals(mesh);
-    if params.use_normals && params.refine_normals {
+    if params.use_normals {
         // Averaged face normals are only first-order accurate on irregular meshes, which
         // would spoil the adjacent-normal equations: a positions-only cubic fit refines them.
         let first = PolynomialParams {
@@ -397,6 +393,40 @@ fn graded(a: usize, b: usize) -> usize {
     deg * (deg + 1) / 2 + b
 }
 
+/// Total degree of the monomial at each graded index.
+const GRADED_DEGREE: [usize; 45] = {
+    let mut out = [0usize; 45];
+    let mut deg = 0;
+    let mut k = 0;
+    while deg <= 8 {
+        let mut b = 0;
+        while b <= deg {
+            out[k] = deg;
+            k += 1;
+            b += 1;
+        }
+        deg += 1;
+    }
+    out
+};
+
+/// Power of y of the monomial at each graded index.
+const GRADED_B: [usize; 45] = {
+    let mut out = [0usize; 45];
+    let mut deg = 0;
+    let mut k = 0;
+    while deg <= 8 {
+        let mut b = 0;
+        while b <= deg {
+            out[k] = b;
+            k += 1;
+            b += 1;
+        }
+        deg += 1;
+    }
+    out
+};
+
 /// Number of monomials of total degree ≤ `deg`.
 #[inline]
 const fn graded_count(deg: usize) -> usize {
@@ -416,21 +446,6 @@ fn solve_local_deg<const D: usize>(
     let p = mesh.positions[v as usize];
     let (e1, e2) = tangent_basis(n);
 
-    // Scale: root mean square distance to the neighbours.
-    let mut h2 = 0.0;
-    for &w in ring {
-        let d = vec3::sub(mesh.positions[w as usize], p);
-        h2 += vec3::dot(d, d);
-    }
-    let h = (h2 / ring.len() as f64).sqrt();
-    if !(h > 0.0 && h.is_finite()) {
-        return None;
-    }
-    let inv_h = 1.0 / h;
-
-    // Normal equations AᵀA u = Aᵀb. Every entry of AᵀA is a sum over neighbours of a product
-    // of two monomials x^a y^b, so it is assembled from the moments Σ x^a y^b (a + b up to
-    // twice the degree) instead of row by row: about 3× fewer operations per neighbour.
     // Monomials x^a y^b are kept flat in graded order (total degree, then b), so that every
     // accumulation below is a fixed-length loop over contiguous values.
     let d = D;
@@ -445,18 +460,25 @@ fn solve_local_deg<const D: usize>(
     let mut pm = [0.0f64; 10]; // Σ z_x x^a y^b (a + b < D), slopes from neighbour normals
     let mut qm = [0.0f64; 10]; // Σ z_y x^a y^b
     let mut mono = [0.0f64; 45];
-    mono[0] = 1.0;
     let mut n_rows = 0usize;
     let mut n_bad = 0usize;
+    // Moments are summed in mesh units and rescaled below by the neighbourhood's RMS distance
+    // h (x → x/h), which is known only after the loop: the same numbers as summing scaled
+    // coordinates, with one pass over the neighbours instead of two.
+    let mut h2 = 0.0;
     for &w in ring {
-        let dv = vec3::scale(vec3::sub(mesh.positions[w as usize], p), inv_h);
+        let dv = vec3::sub(mesh.positions[w as usize], p);
+        h2 += vec3::dot(dv, dv);
         let (x, y, z) = (vec3::dot(dv, e1), vec3::dot(dv, e2), vec3::dot(dv, n));
-        for deg in 1..=m2 {
-            let (base, prev) = (deg * (deg + 1) / 2, (deg - 1) * deg / 2);
-            for b in 0..deg {
-                mono[base + b] = mono[prev + b] * x;
-            }
-            mono[base + deg] = mono[prev + deg - 1] * y;
+        // Powers first (two short chains), then independent products.
+        let mut xp = [1.0f64; 9];
+        let mut yp = [1.0f64; 9];
+        for k in 1..=m2 {
+            xp[k] = xp[k - 1] * x;
+            yp[k] = yp[k - 1] * y;
+        }
+        for k in 0..n_s {
+            mono[k] = xp[GRADED_DEGREE[k] - GRADED_B[k]] * yp[GRADED_B[k]];
         }
         for k in 0..n_s {
             s[k] += mono[k];
@@ -486,6 +508,26 @@ fn solve_local_deg<const D: usize>(
     }
     if n_rows < nu {
         return None;
+    }
+    let h = (h2 / ring.len() as f64).sqrt();
+    if !(h > 0.0 && h.is_finite()) {
+        return None;
+    }
+    let inv_h = 1.0 / h;
+    let mut inv_pow = [1.0f64; 10];
+    for k in 1..10 {
+        inv_pow[k] = inv_pow[k - 1] * inv_h;
+    }
+    for k in 0..n_s {
+        s[k] *= inv_pow[GRADED_DEGREE[k]];
+        u_bad[k] *= inv_pow[GRADED_DEGREE[k]];
+    }
+    for k in 0..n_z {
+        zm[k] *= inv_pow[GRADED_DEGREE[k] + 1];
+    }
+    for k in 0..n_p {
+        pm[k] *= inv_pow[GRADED_DEGREE[k]];
+        qm[k] *= inv_pow[GRADED_DEGREE[k]];
     }
     let with_normals = neighbour_normals.is_some();
     // Moments over the neighbours whose normals gave slope equations.

@@ -3,6 +3,9 @@
 //! Hildebrandt, Polthier, Wardetzky 2005 [HPW05]; per-face tensors as in Rusinkiewicz 2004,
 //! "Estimating curvatures and their derivatives on triangle meshes").
 //!
+//! 0. Vertex normals use the weights of Max 1999, exact on spheres; with angle weights the
+//!    errors on an irregularly sampled torus were three times larger (6.4 % against 2.0 % mean
+//!    relative k_max error at 6k vertices).
 //! 1. Per face, the second fundamental form II (a symmetric 2×2 tensor in a frame of the face)
 //!    is the least-squares solution of II · e = Δn for the three edges e and the differences
 //!    Δn of the vertex normals along them (6 equations, 3 unknowns).
@@ -25,7 +28,9 @@ use crestflow_geom::shapes::sym2_eigen;
 use crestflow_geom::vec3::{self, V3};
 use crestflow_geom::{CurvatureField, TriMesh};
 
-use crate::local::{check_mesh, rotate_between, tangent_basis, MeshInputError};
+use crate::local::{
+    check_mesh, max_weighted_normals, rotate_between, tangent_basis, MeshInputError,
+};
 use crate::orient::orient_directions;
 
 /// Parameters of `curvature.shape_operator`.
@@ -83,7 +88,7 @@ pub fn shape_operator_curvature(
 ) -> Result<ShapeOperatorCurvature, ShapeOperatorError> {
     check_mesh(mesh)?;
     let n = mesh.n_vertices();
-    let normals = mesh.vertex_normals();
+    let normals = max_weighted_normals(mesh);
     let topo = mesh.topology();
 
     let faces: Vec<FaceTensor> =

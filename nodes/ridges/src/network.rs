@@ -198,6 +198,85 @@ fn trisector_node(mesh: &TriMesh, f: usize, pts: &[&GraphNode; 3]) -> GraphNode 
     }
 }
 
+/// Reconnects fragments (the "local connectivity" post-processing of YBS05, thesis §2.5.1.1
+/// step 5): two curve ends (valence-1 nodes) closer than `max_gap` are joined by a segment when
+/// each curve, continued straight on, heads towards the other end (within 45°). Closest pairs
+/// are joined first and every end at most once. Returns the number of segments added.
+pub fn join_gaps(graph: &mut SegmentGraph, max_gap: f64) -> usize {
+    if max_gap.is_nan() || max_gap <= 0.0 || graph.nodes.is_empty() {
+        return 0;
+    }
+    let n = graph.nodes.len();
+    let mut valence = vec![0u32; n];
+    let mut neighbour = vec![u32::MAX; n];
+    for &[p, q] in &graph.edges {
+        valence[p as usize] += 1;
+        valence[q as usize] += 1;
+        neighbour[p as usize] = q;
+        neighbour[q as usize] = p;
+    }
+    let ends: Vec<u32> = (0..n as u32)
+        .filter(|&v| valence[v as usize] == 1)
+        .collect();
+    // Heading of the curve at each end: from its neighbour out through the end.
+    let heading = |v: u32| {
+        let p = graph.nodes[v as usize].position;
+        let q = graph.nodes[neighbour[v as usize] as usize].position;
+        vec3::normalize(vec3::sub(p, q))
+    };
+    // Uniform grid of cell `max_gap`: candidates are in the 27 cells around an end.
+    let cell = |p: vec3::V3| p.map(|c| (c / max_gap).floor() as i64);
+    let mut grid: std::collections::HashMap<[i64; 3], Vec<u32>> = Default::default();
+    for &v in &ends {
+        grid.entry(cell(graph.nodes[v as usize].position))
+            .or_default()
+            .push(v);
+    }
+    let cos45 = std::f64::consts::FRAC_1_SQRT_2;
+    let mut pairs: Vec<(f64, u32, u32)> = Vec::new();
+    for &a in &ends {
+        let pa = graph.nodes[a as usize].position;
+        let c = cell(pa);
+        let ha = heading(a);
+        for dx in -1..=1 {
+            for dy in -1..=1 {
+                for dz in -1..=1 {
+                    let Some(list) = grid.get(&[c[0] + dx, c[1] + dy, c[2] + dz]) else {
+                        continue;
+                    };
+                    for &b in list {
+                        if b <= a || neighbour[a as usize] == b {
+                            continue;
+                        }
+                        let pb = graph.nodes[b as usize].position;
+                        let d = vec3::dist(pa, pb);
+                        if d > max_gap || d == 0.0 {
+                            continue;
+                        }
+                        let g = vec3::scale(vec3::sub(pb, pa), 1.0 / d);
+                        if vec3::dot(ha, g) >= cos45 && vec3::dot(heading(b), g) <= -cos45 {
+                            pairs.push((d, a, b));
+                        }
+                    }
+                }
+            }
+        }
+    }
+    // Closest first; ties by node index, so the result does not depend on hash order.
+    pairs.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)).then(x.2.cmp(&y.2)));
+    let mut taken = vec![false; n];
+    let mut added = 0;
+    for (_, a, b) in pairs {
+        if !taken[a as usize] && !taken[b as usize] {
+            taken[a as usize] = true;
+            taken[b as usize] = true;
+            graph.edges.push([a, b]);
+            added += 1;
+        }
+    }
+    added
+}
+
 /// One arc of the graph: a walk between extraordinary nodes (valence ≠ 2), or a closed loop of
 /// regular nodes (first node not repeated).
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -343,6 +422,50 @@ mod tests {
         // Node 0 is now regular: one arc 2-1-0-4-5-6.
         assert_eq!(arcs.len(), 1);
         assert_eq!(arcs[0].nodes, vec![2, 1, 0, 4, 5, 6]);
+    }
+
+    fn chain(points: &[[f64; 3]], first: u32) -> (Vec<GraphNode>, Vec<[u32; 2]>) {
+        let nodes = points
+            .iter()
+            .map(|&p| GraphNode {
+                position: p,
+                location: SurfacePoint::Free,
+                strength: 1.0,
+                cyclideness: 1.0,
+            })
+            .collect();
+        let edges = (0..points.len() as u32 - 1)
+            .map(|i| [first + i, first + i + 1])
+            .collect();
+        (nodes, edges)
+    }
+
+    #[test]
+    fn gaps_between_aligned_fragments_are_joined() {
+        // Two collinear fragments along x with a gap of 0.5, and a third fragment beside the
+        // gap but perpendicular to it (heading along y): only the collinear pair is joined.
+        let (mut nodes, mut edges) = chain(&[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0]], 0);
+        let (n2, e2) = chain(&[[2.5, 0.0, 0.0], [3.5, 0.0, 0.0]], 3);
+        let (n3, e3) = chain(&[[2.25, 1.5, 0.0], [2.25, 0.4, 0.0]], 5);
+        nodes.extend(n2.into_iter().chain(n3));
+        edges.extend(e2.into_iter().chain(e3));
+        let mut g = SegmentGraph {
+            nodes,
+            edges,
+            trisectors: 0,
+            end_faces: 0,
+        };
+        assert_eq!(join_gaps(&mut g, 0.6), 1);
+        assert_eq!(g.edges.last(), Some(&[2, 3]));
+        let arcs = extract_arcs(g.nodes.len(), &g.edges, &vec![true; g.edges.len()]);
+        assert_eq!(arcs.len(), 2);
+        assert_eq!(arcs[0].nodes, vec![0, 1, 2, 3, 4]);
+        // A gap wider than allowed stays open.
+        let mut g2 = SegmentGraph {
+            edges: g.edges[..g.edges.len() - 1].to_vec(),
+            ..g
+        };
+        assert_eq!(join_gaps(&mut g2, 0.4), 0);
     }
 
     #[test]

@@ -16,8 +16,9 @@
 //!    (trisector), one is a curve end; the segments form a network whose arcs run between
 //!    extraordinary vertices or close into loops (Def. 2.1, [`crate::network`]);
 //! 5. arcs are filtered by sharpness w_κ (§4.1: length-weighted mean of |κ| along the arc),
-//!    by the cyclideness integral of eq. 2.1 (§2.1.2, YBS05) and by length; arcs that become
-//!    joined once a branch between them is removed are merged and measured again.
+//!    by the cyclideness integral of eq. 2.1 (§2.1.2, YBS05) and by the length of the
+//!    supporting curve (§4.1); arcs that become joined once a branch between them is removed
+//!    are merged and measured again.
 //!
 //! Thresholds are scale-free: strength in multiples of the median max(|k_max|, |k_min|) of the
 //! mesh's vertices, length in multiples of the mean edge length; the cyclideness integral
@@ -33,7 +34,7 @@ use crestflow_geom::{
 use serde::{Deserialize, Serialize};
 
 use crate::crossing::{edge_crossings, Definition, Family};
-use crate::network::{extract_arcs, segment_graph, Arc, SegmentGraph};
+use crate::network::{extract_arcs, join_gaps, segment_graph, Arc, SegmentGraph};
 
 /// Which curve families to trace.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -62,9 +63,14 @@ pub struct TraceParams {
     /// leave on surfaces close to Dupin cyclides (cylinders, spheres, tori), where the
     /// curvature hardly changes along the curvature lines. In [0, 1e12]. Default 8.
     pub min_cyclideness: f64,
-    /// Keep arcs at least this long, in multiples of the mean edge length. In [0, 1e6].
-    /// Default 3.
+    /// Keep arcs whose supporting curve (the arc extended through junctions by its straightest
+    /// continuation, §4.1) is at least this long, in multiples of the mean edge length.
+    /// In [0, 1e6]. Default 3.
     pub min_length: f64,
+    /// Join curve ends closer than this (in multiples of the mean edge length) when both
+    /// curves head towards each other within 45° (YBS05's local reconnection of fragments).
+    /// 0 turns it off. In [0, 100]. Default 2.
+    pub join_gap: f64,
     /// Skip edges with a (nearly) umbilic end, where |k_max − k_min| ≤ this × max(|k_max|,
     /// |k_min|): principal directions are undefined there. In [0, 1]. Default 0.01.
     pub umbilic_tolerance: f64,
@@ -78,6 +84,7 @@ impl Default for TraceParams {
             min_strength: 1.5,
             min_cyclideness: 8.0,
             min_length: 3.0,
+            join_gap: 2.0,
             umbilic_tolerance: 0.01,
         }
     }
@@ -89,6 +96,7 @@ impl Validate for TraceParams {
         check_range(&mut v, "min_strength", self.min_strength, 0.0, 1e6);
         check_range(&mut v, "min_cyclideness", self.min_cyclideness, 0.0, 1e12);
         check_range(&mut v, "min_length", self.min_length, 0.0, 1e6);
+        check_range(&mut v, "join_gap", self.join_gap, 0.0, 100.0);
         check_range(
             &mut v,
             "umbilic_tolerance",
@@ -141,6 +149,8 @@ pub struct TraceStats {
     pub ravine_points: usize,
     /// Trisector faces, before filtering.
     pub trisectors: usize,
+    /// Gaps between fragments closed by `join_gap`.
+    pub joined: usize,
     /// Arcs removed by each filter (an arc failing several counts under the first).
     pub removed_weak: usize,
     pub removed_cyclide: usize,
@@ -164,6 +174,7 @@ impl TraceStats {
             .set("ridge_points", self.ridge_points)
             .set("ravine_points", self.ravine_points)
             .set("trisectors", self.trisectors)
+            .set("joined", self.joined)
             .set("removed_weak", self.removed_weak)
             .set("removed_cyclide", self.removed_cyclide)
             .set("removed_short", self.removed_short)
@@ -217,8 +228,9 @@ pub fn trace(
             par,
         );
         let n_points = crossings.iter().filter(|c| c.is_some()).count();
-        let graph = segment_graph(mesh, field, family, params.definition, &crossings, par);
+        let mut graph = segment_graph(mesh, field, family, params.definition, &crossings, par);
         stats.trisectors += graph.trisectors;
+        stats.joined += join_gaps(&mut graph, params.join_gap * stats.mean_edge_length);
         let arcs = filter_arcs(&graph, params, &mut stats);
         let label = match family {
             Family::Ridge => {
@@ -370,35 +382,117 @@ fn measure(graph: &SegmentGraph, arc: &Arc) -> ArcMeasure {
 }
 
 /// Step 5: drops arcs failing a threshold, re-forms arcs (branches removed at a junction let
-/// the others merge) and repeats until every arc passes.
+/// the others merge) and repeats until every arc passes. Strength and cyclideness are measured
+/// per arc; length is the supporting-curve length of §4.1 ([`supporting_lengths`]) among the
+/// arcs that pass the other two filters.
 fn filter_arcs(graph: &SegmentGraph, params: &TraceParams, stats: &mut TraceStats) -> Vec<Arc> {
     let min_strength = params.min_strength * stats.curvature_scale;
     let min_length = params.min_length * stats.mean_edge_length;
     let mut alive = vec![true; graph.edges.len()];
     loop {
         let arcs = extract_arcs(graph.nodes.len(), &graph.edges, &alive);
-        let mut removed = false;
-        for arc in &arcs {
-            let m = measure(graph, arc);
-            let reason = if m.strength < min_strength {
-                &mut stats.removed_weak
+        let measures: Vec<ArcMeasure> = arcs.iter().map(|a| measure(graph, a)).collect();
+        let mut keep = vec![true; arcs.len()];
+        for (i, m) in measures.iter().enumerate() {
+            if m.strength < min_strength {
+                stats.removed_weak += 1;
+                keep[i] = false;
             } else if m.cyclideness < params.min_cyclideness {
-                &mut stats.removed_cyclide
-            } else if m.length < min_length {
-                &mut stats.removed_short
-            } else {
-                continue;
-            };
-            *reason += 1;
-            removed = true;
+                stats.removed_cyclide += 1;
+                keep[i] = false;
+            }
+        }
+        let support = supporting_lengths(graph, &arcs, &measures, &keep);
+        for i in 0..arcs.len() {
+            if keep[i] && support[i] < min_length {
+                stats.removed_short += 1;
+                keep[i] = false;
+            }
+        }
+        if keep.iter().all(|&k| k) {
+            return arcs;
+        }
+        for (arc, _) in arcs.iter().zip(&keep).filter(|(_, &k)| !k) {
             for &e in &arc.edges {
                 alive[e as usize] = false;
             }
         }
-        if !removed {
-            return arcs;
-        }
     }
+}
+
+/// The length of the feature curve each arc belongs to (thesis §4.1, "Length"): the arc, extended
+/// at each end through junctions by the arc that continues it most straightly (turning by less
+/// than 45°), then that arc's far end likewise, until no arc continues or one would repeat.
+/// Only arcs with `keep` take part.
+fn supporting_lengths(
+    graph: &SegmentGraph,
+    arcs: &[Arc],
+    measures: &[ArcMeasure],
+    keep: &[bool],
+) -> Vec<f64> {
+    // Arc ends at each junction node: (arc, end) with end 0 = first node, 1 = last node.
+    let mut ends: std::collections::BTreeMap<u32, Vec<(usize, usize)>> = Default::default();
+    for (i, arc) in arcs.iter().enumerate() {
+        if arc.closed || !keep[i] {
+            continue;
+        }
+        ends.entry(arc.nodes[0]).or_default().push((i, 0));
+        ends.entry(arc.nodes[arc.nodes.len() - 1])
+            .or_default()
+            .push((i, 1));
+    }
+    // Unit direction leaving the node at `end` into the arc, over a few segments for stability.
+    let leave = |i: usize, end: usize| {
+        let n = &arcs[i].nodes;
+        let k = 3.min(n.len() - 1);
+        let (from, to) = if end == 0 {
+            (n[0], n[k])
+        } else {
+            (n[n.len() - 1], n[n.len() - 1 - k])
+        };
+        vec3::normalize(vec3::sub(
+            graph.nodes[to as usize].position,
+            graph.nodes[from as usize].position,
+        ))
+    };
+    let cos_max_turn = std::f64::consts::FRAC_1_SQRT_2;
+    (0..arcs.len())
+        .map(|i| {
+            if !keep[i] || arcs[i].closed {
+                return measures[i].length;
+            }
+            let mut total = measures[i].length;
+            let mut used = vec![i];
+            for start_end in [0, 1] {
+                let (mut cur, mut end) = (i, start_end);
+                loop {
+                    let node = if end == 0 {
+                        arcs[cur].nodes[0]
+                    } else {
+                        *arcs[cur].nodes.last().unwrap_or(&0)
+                    };
+                    let Some(cands) = ends.get(&node) else { break };
+                    if cands.len() < 2 {
+                        break;
+                    }
+                    // Continuing straight: leaving `cur` backwards ≈ leaving the next arc.
+                    let incoming = vec3::scale(leave(cur, end), -1.0);
+                    let best = cands
+                        .iter()
+                        .filter(|(j, _)| !used.contains(j))
+                        .map(|&(j, e)| (vec3::dot(incoming, leave(j, e)), j, e))
+                        .filter(|&(c, _, _)| c >= cos_max_turn)
+                        .max_by(|a, b| a.0.total_cmp(&b.0).then(b.1.cmp(&a.1)));
+                    let Some((_, j, e)) = best else { break };
+                    total += measures[j].length;
+                    used.push(j);
+                    cur = j;
+                    end = 1 - e;
+                }
+            }
+            total
+        })
+        .collect()
 }
 
 /// Adds `arcs` to `net` as curves with `label`; graph nodes become network vertices in order of
@@ -473,5 +567,78 @@ impl NodeKind for TraceNode {
         Ok(Outputs::new()
             .with("network", out.network)
             .with("report", out.stats.to_report()))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::network::GraphNode;
+    use crestflow_geom::SurfacePoint;
+
+    fn node(x: f64, y: f64) -> GraphNode {
+        GraphNode {
+            position: [x, y, 0.0],
+            location: SurfacePoint::Free,
+            strength: 1.0,
+            cyclideness: 1.0,
+        }
+    }
+
+    /// A straight line x = −5..5 (nodes 0..=10, unit steps) with a junction at x = 0 (node 5)
+    /// and a spur of length `spur_len` leaving it at 90° (node 11).
+    fn line_with_spur(spur_len: f64) -> SegmentGraph {
+        let mut nodes: Vec<GraphNode> = (0..=10).map(|i| node(i as f64 - 5.0, 0.0)).collect();
+        nodes.push(node(0.0, spur_len));
+        let mut edges: Vec<[u32; 2]> = (0..10).map(|i| [i, i + 1]).collect();
+        edges.push([5, 11]);
+        SegmentGraph {
+            nodes,
+            edges,
+            trisectors: 0,
+            end_faces: 0,
+        }
+    }
+
+    fn filter(graph: &SegmentGraph, min_length: f64) -> (Vec<Arc>, TraceStats) {
+        let params = TraceParams {
+            min_strength: 0.0,
+            min_cyclideness: 0.0,
+            min_length,
+            ..Default::default()
+        };
+        let mut stats = TraceStats {
+            curvature_scale: 1.0,
+            mean_edge_length: 1.0,
+            ..Default::default()
+        };
+        let arcs = filter_arcs(graph, &params, &mut stats);
+        (arcs, stats)
+    }
+
+    #[test]
+    fn halves_of_a_long_curve_count_its_whole_length() {
+        // Each half is 5 long, the curve through the junction 10: a threshold of 7 keeps the
+        // line (merged into one arc once the spur is gone) and drops the spur.
+        let (arcs, stats) = filter(&line_with_spur(1.0), 7.0);
+        assert_eq!(stats.removed_short, 1);
+        assert_eq!(arcs.len(), 1);
+        assert_eq!(arcs[0].nodes, (0..=10).collect::<Vec<u32>>());
+        // Above the whole length nothing is left.
+        let (arcs, stats) = filter(&line_with_spur(1.0), 10.5);
+        assert!(arcs.is_empty());
+        assert_eq!(stats.removed_short, 3);
+    }
+
+    #[test]
+    fn a_turn_beyond_45_degrees_does_not_extend() {
+        // The spur is 4 long and leaves at 90°: its supporting length is its own, 4 < 4.5, while
+        // the halves support each other (10).
+        let (arcs, _) = filter(&line_with_spur(4.0), 4.5);
+        assert_eq!(arcs.len(), 1);
+        assert_eq!(arcs[0].nodes.len(), 11);
+        // At 3.5 all three stay: three arcs meeting at the junction.
+        let (arcs, _) = filter(&line_with_spur(4.0), 3.5);
+        assert_eq!(arcs.len(), 3);
     }
 }
