@@ -67,13 +67,20 @@ impl FeatureCurveNetwork {
     }
     /// All edges of the network.
     pub fn edges(&self) -> Vec<(u32, u32)> {
-        (0..self.curves.len()).flat_map(|c| self.curve_edges(c)).collect()
+        (0..self.curves.len())
+            .flat_map(|c| self.curve_edges(c))
+            .collect()
     }
     /// Length of curve `c`.
     pub fn curve_length(&self, c: usize) -> f64 {
         self.curve_edges(c)
             .iter()
-            .map(|&(a, b)| dist(self.vertices[a as usize].position, self.vertices[b as usize].position))
+            .map(|&(a, b)| {
+                dist(
+                    self.vertices[a as usize].position,
+                    self.vertices[b as usize].position,
+                )
+            })
             .sum()
     }
     /// Total length of all curves.
@@ -107,6 +114,10 @@ impl FeatureCurveNetwork {
     }
     /// Points of curve `c` in order (positions of its vertices).
     pub fn curve_points(&self, c: usize) -> Vec<V3> {
-        self.curves[c].vertices.iter().map(|&i| self.vertices[i as usize].position).collect()
+        self.curves[c]
+            .vertices
+            .iter()
+            .map(|&i| self.vertices[i as usize].position)
+            .collect()
     }
 }

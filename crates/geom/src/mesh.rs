@@ -173,11 +173,13 @@ impl Topology {
 
     /// Faces around vertex `v` (in face index order).
     pub fn vertex_faces(&self, v: u32) -> &[u32] {
-        &self.vf_faces[self.vf_offsets[v as usize] as usize..self.vf_offsets[v as usize + 1] as usize]
+        &self.vf_faces
+            [self.vf_offsets[v as usize] as usize..self.vf_offsets[v as usize + 1] as usize]
     }
     /// Vertices sharing an edge with `v` (in index order).
     pub fn neighbors(&self, v: u32) -> &[u32] {
-        &self.vv_verts[self.vv_offsets[v as usize] as usize..self.vv_offsets[v as usize + 1] as usize]
+        &self.vv_verts
+            [self.vv_offsets[v as usize] as usize..self.vv_offsets[v as usize + 1] as usize]
     }
     /// Whether edge `e` has exactly one face.
     pub fn is_boundary_edge(&self, e: u32) -> bool {
@@ -220,7 +222,11 @@ impl TriMesh {
     /// A mesh from raw arrays. No validation here: loaders validate (see `io`), and code that
     /// builds meshes itself is trusted to index correctly.
     pub fn new(positions: Vec<V3>, triangles: Vec<[u32; 3]>) -> Self {
-        TriMesh { positions, triangles, topology: OnceLock::new() }
+        TriMesh {
+            positions,
+            triangles,
+            topology: OnceLock::new(),
+        }
     }
     pub fn n_vertices(&self) -> usize {
         self.positions.len()
@@ -230,7 +236,8 @@ impl TriMesh {
     }
     /// Connectivity, built on first call.
     pub fn topology(&self) -> &Topology {
-        self.topology.get_or_init(|| Topology::build(self.positions.len(), &self.triangles))
+        self.topology
+            .get_or_init(|| Topology::build(self.positions.len(), &self.triangles))
     }
     /// Replaces positions keeping the triangles (and connectivity).
     pub fn with_positions(&self, positions: Vec<V3>) -> TriMesh {
@@ -243,7 +250,11 @@ impl TriMesh {
     /// The three corner positions of face `f`.
     pub fn face_points(&self, f: usize) -> [V3; 3] {
         let t = self.triangles[f];
-        [self.positions[t[0] as usize], self.positions[t[1] as usize], self.positions[t[2] as usize]]
+        [
+            self.positions[t[0] as usize],
+            self.positions[t[1] as usize],
+            self.positions[t[2] as usize],
+        ]
     }
     /// Unnormalised face normal (length = 2 × area).
     pub fn face_normal_raw(&self, f: usize) -> V3 {
@@ -252,7 +263,9 @@ impl TriMesh {
     }
     /// Unit face normals (zero for degenerate faces).
     pub fn face_normals(&self) -> Vec<V3> {
-        (0..self.n_faces()).map(|f| vec3::normalize(self.face_normal_raw(f))).collect()
+        (0..self.n_faces())
+            .map(|f| vec3::normalize(self.face_normal_raw(f)))
+            .collect()
     }
     pub fn face_area(&self, f: usize) -> f64 {
         0.5 * vec3::norm(self.face_normal_raw(f))
@@ -338,7 +351,12 @@ mod tests {
 
     fn tetra() -> TriMesh {
         TriMesh::new(
-            vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+            vec![
+                [0.0, 0.0, 0.0],
+                [1.0, 0.0, 0.0],
+                [0.0, 1.0, 0.0],
+                [0.0, 0.0, 1.0],
+            ],
             vec![[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]],
         )
     }
@@ -380,7 +398,13 @@ mod tests {
     fn open_and_nonmanifold_edges() {
         // Three triangles sharing edge (0, 1): one non-manifold edge, six boundary edges.
         let m = TriMesh::new(
-            vec![[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, 1.0]],
+            vec![
+                [0.0; 3],
+                [1.0, 0.0, 0.0],
+                [0.0, 1.0, 0.0],
+                [0.0, -1.0, 0.0],
+                [0.0, 0.0, 1.0],
+            ],
             vec![[0, 1, 2], [1, 0, 3], [0, 1, 4]],
         );
         let t = m.topology();

@@ -180,47 +180,34 @@ pub fn polynomial_curvature(
     check_mesh(mesh)?;
     let n = mesh.n_vertices();
     let topo = mesh.topology();
-    let mut normals = area_weighted_normals(mesh);
-    if params.use_normals {
+    let initial = area_weighted_normals(mesh);
+    let fits: Vec<VertexFit> = if params.use_normals {
         // Averaged face normals are only first-order accurate on irregular meshes, which
-        // would spoil the adjacent-normal equations: a positions-only cubic fit refines them.
-        let first = PolynomialParams {
-            use_normals: false,
-            degree: 3,
-            ..params.clone()
-        };
-        let refined: Vec<V3> = par.map_collect(n, |v| {
-            with_scratch(|scratch| {
-                let input = FitInput {
-                    mesh,
-                    frame_normals: &normals,
-                    neighbour_normals: None,
-                    topo,
-                };
-                let fit = fit_vertex(v as u32, &input, &first, true, scratch);
-                if fit.status == Status::Failed || fit.status == Status::Reduced {
-                    normals[v]
-                } else {
-                    fit.normal
-                }
-            })
+        // would spoil the adjacent-normal equations: a first pass fits a positions-only cubic
+        // at every vertex for its normal, keeping the height sums it gathered (which the
+        // second pass needs too, in the same frame) so that the second pass only adds the
+        // neighbours' normals.
+        let first: Vec<(V3, Option<Box<Heights>>)> = par.map_collect(n, |v| {
+            with_scratch(|scratch| first_pass(v as u32, mesh, &initial, topo, params, scratch))
         });
-        normals = refined;
-    }
-    let neighbour_normals = if params.use_normals {
-        Some(normals.as_slice())
+        let normals: Vec<V3> = first.iter().map(|f| f.0).collect();
+        par.map_collect(n, |v| {
+            with_scratch(|scratch| {
+                let heights = first[v].1.as_deref();
+                second_pass(v as u32, mesh, &initial, &normals, heights, topo, params, scratch)
+            })
+        })
     } else {
-        None
+        let input = FitInput {
+            mesh,
+            frame_normals: &initial,
+            neighbour_normals: None,
+            topo,
+        };
+        par.map_collect(n, |v| {
+            with_scratch(|scratch| fit_vertex(v as u32, &input, params, false, scratch))
+        })
     };
-    let input = FitInput {
-        mesh,
-        frame_normals: &normals,
-        neighbour_normals,
-        topo,
-    };
-    let fits: Vec<VertexFit> = par.map_collect(n, |v| {
-        with_scratch(|scratch| fit_vertex(v as u32, &input, params, false, scratch))
-    });
 
     let mut stats = FitStats::default();
     let mut field = CurvatureField {
@@ -258,6 +245,131 @@ pub fn polynomial_curvature(
 fn min_neighbours(nu: usize, with_normals: bool) -> usize {
     let per = if with_normals { 3 } else { 1 };
     (3 * nu).div_ceil(2 * per).max(2)
+}
+
+/// The height sums of a vertex's first-pass fit, in its initial frame, and the rings gathered.
+struct Heights {
+    s: [f64; 45],
+    z: [f64; 15],
+    h2: f64,
+    count: usize,
+    rings: u32,
+}
+
+/// Rings around `v` until at least `need` neighbours (or `params.rings + 2` rings, or the
+/// whole component); returns the number of rings gathered.
+fn gather(
+    v: u32,
+    n_vertices: usize,
+    topo: &crestflow_geom::Topology,
+    rings: u32,
+    need: usize,
+    scratch: &mut crate::local::Scratch,
+) -> u32 {
+    let mut outer = scratch.start(topo, n_vertices, v);
+    let mut got = 1;
+    while got < rings {
+        outer = scratch.grow(topo, outer);
+        got += 1;
+    }
+    while scratch.ring.len() < need && got < rings + 2 {
+        let before = scratch.ring.len();
+        outer = scratch.grow(topo, outer);
+        got += 1;
+        if scratch.ring.len() == before {
+            break;
+        }
+    }
+    got
+}
+
+/// First pass: the normal of a positions-only cubic fit in the frame of the averaged normal,
+/// and the height sums for the second pass (`None` where the plain fallbacks took over).
+fn first_pass(
+    v: u32,
+    mesh: &TriMesh,
+    initial: &[V3],
+    topo: &crestflow_geom::Topology,
+    params: &PolynomialParams,
+    scratch: &mut crate::local::Scratch,
+) -> (V3, Option<Box<Heights>>) {
+    let n0 = initial[v as usize];
+    if n0 == [0.0; 3] {
+        return (n0, None);
+    }
+    let rings = gather(v, mesh.n_vertices(), topo, params.rings, min_neighbours(9, false), scratch);
+    let frame = Frame::new(mesh.positions[v as usize], n0);
+    let mut acc = Moments::default();
+    // Sums for the final degree (a superset of what the cubic needs: graded prefixes).
+    match params.degree {
+        3 => acc.add_positions::<3>(&frame, mesh, &scratch.ring),
+        _ => acc.add_positions::<4>(&frame, mesh, &scratch.ring),
+    }
+    if scratch.ring.len() >= min_neighbours(9, false) {
+        if let Some(fit) = solve_moments::<3>(&acc, &frame, false, true) {
+            let heights = Heights { s: acc.s, z: acc.z, h2: acc.h2, count: acc.count, rings };
+            return (fit.normal, Some(Box::new(heights)));
+        }
+    }
+    // Lower degrees or a larger neighbourhood, as a plain fit would do.
+    let first = PolynomialParams { use_normals: false, degree: 3, ..params.clone() };
+    let input = FitInput { mesh, frame_normals: initial, neighbour_normals: None, topo };
+    let fit = fit_vertex(v, &input, &first, true, scratch);
+    if fit.status == Status::Failed || fit.status == Status::Reduced {
+        (n0, None)
+    } else {
+        (fit.normal, None)
+    }
+}
+
+/// Second pass: the full fit with the neighbours' (first-pass) normals, reusing the first
+/// pass' height sums where there are any.
+#[allow(clippy::too_many_arguments)]
+fn second_pass(
+    v: u32,
+    mesh: &TriMesh,
+    initial: &[V3],
+    normals: &[V3],
+    heights: Option<&Heights>,
+    topo: &crestflow_geom::Topology,
+    params: &PolynomialParams,
+    scratch: &mut crate::local::Scratch,
+) -> VertexFit {
+    if let Some(h) = heights {
+        gather(v, mesh.n_vertices(), topo, h.rings, 0, scratch);
+        let frame = Frame::new(mesh.positions[v as usize], initial[v as usize]);
+        let mut acc = Moments {
+            s: h.s,
+            z: h.z,
+            h2: h.h2,
+            count: h.count,
+            rows: h.count,
+            ..Moments::default()
+        };
+        let fit = match params.degree {
+            3 => {
+                acc.add_normals::<3>(&frame, mesh, normals, &scratch.ring);
+                solve_moments::<3>(&acc, &frame, true, false)
+            }
+            _ => {
+                acc.add_normals::<4>(&frame, mesh, normals, &scratch.ring);
+                solve_moments::<4>(&acc, &frame, true, false)
+            }
+        };
+        if let Some(mut fit) = fit {
+            if h.rings > params.rings {
+                fit.status = Status::Grown;
+            }
+            return fit;
+        }
+    }
+    let input = FitInput {
+        mesh,
+        frame_normals: normals,
+        neighbour_normals: Some(normals),
+        topo,
+    };
+    fit_vertex(v, &input, params, false, scratch)
 }
 
 /// What every vertex's fit reads.
@@ -441,75 +553,155 @@ fn solve_local_deg<const D: usize>(
     ring: &[u32],
     normal_only: bool,
 ) -> Option<VertexFit> {
-    let degree = D as u32;
-    let nu = unknowns(degree);
-    let p = mesh.positions[v as usize];
-    let (e1, e2) = tangent_basis(n);
+    let frame = Frame::new(mesh.positions[v as usize], n);
+    let mut acc = Moments::default();
+    acc.add_positions::<D>(&frame, mesh, ring);
+    if let Some(normals) = neighbour_normals {
+        acc.add_normals::<D>(&frame, mesh, normals, ring);
+    }
+    solve_moments::<D>(&acc, &frame, neighbour_normals.is_some(), normal_only)
+}
 
-    // Monomials x^a y^b are kept flat in graded order (total degree, then b), so that every
-    // accumulation below is a fixed-length loop over contiguous values.
-    let d = D;
+/// A vertex's local frame: origin, tangents e1, e2 and normal n (e1 × e2 = n).
+#[derive(Clone, Copy)]
+struct Frame {
+    p: V3,
+    e1: V3,
+    e2: V3,
+    n: V3,
+}
+
+impl Frame {
+    fn new(p: V3, n: V3) -> Self {
+        let (e1, e2) = tangent_basis(n);
+        Frame { p, e1, e2, n }
+    }
+}
+
+/// Sums over a neighbourhood from which the normal equations are assembled. Monomials x^a y^b
+/// are kept flat in graded order (total degree, then b), so that every accumulation is a
+/// fixed-length loop over contiguous values; a lower degree uses a prefix. Sums are in mesh
+/// units and rescaled by the neighbourhood's RMS distance h when solving.
+#[derive(Clone, Copy)]
+struct Moments {
+    /// Σ x^a y^b over all neighbours (a + b ≤ 2 × degree).
+    s: [f64; 45],
+    /// Σ z x^a y^b (a + b ≤ degree).
+    z: [f64; 15],
+    /// Σ z_x x^a y^b and Σ z_y x^a y^b (a + b < degree), slopes from neighbour normals.
+    px: [f64; 10],
+    py: [f64; 10],
+    /// Σ x^a y^b over neighbours without a usable normal (a + b ≤ 2 × degree − 2).
+    bad: [f64; 45],
+    /// Σ |q − p|², number of neighbours, of equations, of neighbours without usable normal.
+    h2: f64,
+    count: usize,
+    rows: usize,
+    n_bad: usize,
+}
+
+impl Default for Moments {
+    fn default() -> Self {
+        Moments {
+            s: [0.0; 45],
+            z: [0.0; 15],
+            px: [0.0; 10],
+            py: [0.0; 10],
+            bad: [0.0; 45],
+            h2: 0.0,
+            count: 0,
+            rows: 0,
+            n_bad: 0,
+        }
+    }
+}
+
+/// Powers x^0..x^(2D), y^0..y^(2D), then the graded monomials.
+#[inline]
+fn monomials<const D: usize>(x: f64, y: f64, mono: &mut [f64; 45]) {
     let m2 = 2 * D;
-    let n_s = graded_count(m2);
-    let n_z = graded_count(d);
-    let n_p = graded_count(d - 1);
-    let n_u = graded_count(m2 - 2);
-    let mut s = [0.0f64; 45]; // Σ x^a y^b over all neighbours (a + b ≤ 2D)
-    let mut u_bad = [0.0f64; 45]; // the same over neighbours without a usable normal
-    let mut zm = [0.0f64; 15]; // Σ z x^a y^b (a + b ≤ D)
-    let mut pm = [0.0f64; 10]; // Σ z_x x^a y^b (a + b < D), slopes from neighbour normals
-    let mut qm = [0.0f64; 10]; // Σ z_y x^a y^b
-    let mut mono = [0.0f64; 45];
-    let mut n_rows = 0usize;
-    let mut n_bad = 0usize;
-    // Moments are summed in mesh units and rescaled below by the neighbourhood's RMS distance
-    // h (x → x/h), which is known only after the loop: the same numbers as summing scaled
-    // coordinates, with one pass over the neighbours instead of two.
-    let mut h2 = 0.0;
-    for &w in ring {
-        let dv = vec3::sub(mesh.positions[w as usize], p);
-        h2 += vec3::dot(dv, dv);
-        let (x, y, z) = (vec3::dot(dv, e1), vec3::dot(dv, e2), vec3::dot(dv, n));
-        // Powers first (two short chains), then independent products.
-        let mut xp = [1.0f64; 9];
-        let mut yp = [1.0f64; 9];
-        for k in 1..=m2 {
-            xp[k] = xp[k - 1] * x;
-            yp[k] = yp[k - 1] * y;
+    let mut xp = [1.0f64; 9];
+    let mut yp = [1.0f64; 9];
+    for k in 1..=m2 {
+        xp[k] = xp[k - 1] * x;
+        yp[k] = yp[k - 1] * y;
+    }
+    for k in 0..graded_count(m2) {
+        mono[k] = xp[GRADED_DEGREE[k] - GRADED_B[k]] * yp[GRADED_B[k]];
+    }
+}
+
+impl Moments {
+    /// Adds the height equations of `ring` for a fit of degree D.
+    fn add_positions<const D: usize>(&mut self, f: &Frame, mesh: &TriMesh, ring: &[u32]) {
+        let (n_s, n_z) = (graded_count(2 * D), graded_count(D));
+        let mut mono = [0.0f64; 45];
+        for &w in ring {
+            let dv = vec3::sub(mesh.positions[w as usize], f.p);
+            self.h2 += vec3::dot(dv, dv);
+            let (x, y, z) = (vec3::dot(dv, f.e1), vec3::dot(dv, f.e2), vec3::dot(dv, f.n));
+            monomials::<D>(x, y, &mut mono);
+            for k in 0..n_s {
+                self.s[k] += mono[k];
+            }
+            for k in 0..n_z {
+                self.z[k] += z * mono[k];
+            }
         }
-        for k in 0..n_s {
-            mono[k] = xp[GRADED_DEGREE[k] - GRADED_B[k]] * yp[GRADED_B[k]];
-        }
-        for k in 0..n_s {
-            s[k] += mono[k];
-        }
-        for k in 0..n_z {
-            zm[k] += z * mono[k];
-        }
-        n_rows += 1;
-        if let Some(normals) = neighbour_normals {
+        self.count += ring.len();
+        self.rows += ring.len();
+    }
+
+    /// Adds the slope equations of the neighbours' normals (GI04) for a fit of degree D.
+    fn add_normals<const D: usize>(
+        &mut self,
+        f: &Frame,
+        mesh: &TriMesh,
+        normals: &[V3],
+        ring: &[u32],
+    ) {
+        let (n_p, n_u) = (graded_count(D - 1), graded_count(2 * D - 2));
+        let mut mono = [0.0f64; 45];
+        for &w in ring {
+            let dv = vec3::sub(mesh.positions[w as usize], f.p);
+            let (x, y) = (vec3::dot(dv, f.e1), vec3::dot(dv, f.e2));
             let nw = normals[w as usize];
-            let (a_, b_, c_) = (vec3::dot(nw, e1), vec3::dot(nw, e2), vec3::dot(nw, n));
+            let (a, b, c) = (vec3::dot(nw, f.e1), vec3::dot(nw, f.e2), vec3::dot(nw, f.n));
             // A neighbour normal tilted by more than ~70° says nothing reliable about slopes.
-            if c_ > 0.34 {
-                let (gx, gy) = (-a_ / c_, -b_ / c_);
+            if c > 0.34 {
+                monomials::<D>(x, y, &mut mono);
+                let (gx, gy) = (-a / c, -b / c);
                 for k in 0..n_p {
-                    pm[k] += gx * mono[k];
-                    qm[k] += gy * mono[k];
+                    self.px[k] += gx * mono[k];
+                    self.py[k] += gy * mono[k];
                 }
-                n_rows += 2;
+                self.rows += 2;
             } else {
-                n_bad += 1;
+                monomials::<D>(x, y, &mut mono);
+                self.n_bad += 1;
                 for k in 0..n_u {
-                    u_bad[k] += mono[k];
+                    self.bad[k] += mono[k];
                 }
             }
         }
     }
-    if n_rows < nu {
+}
+
+/// Assembles and solves the normal equations of degree D from `acc`, then derives curvature,
+/// directions and extremality (or only the normal).
+fn solve_moments<const D: usize>(
+    acc: &Moments,
+    frame: &Frame,
+    with_normals: bool,
+    normal_only: bool,
+) -> Option<VertexFit> {
+    let degree = D as u32;
+    let nu = unknowns(degree);
+    let Frame { e1, e2, n, .. } = *frame;
+    if acc.rows < nu || acc.count == 0 {
         return None;
     }
-    let h = (h2 / ring.len() as f64).sqrt();
+    let h = (acc.h2 / acc.count as f64).sqrt();
     if !(h > 0.0 && h.is_finite()) {
         return None;
     }
@@ -518,26 +710,12 @@ fn solve_local_deg<const D: usize>(
     for k in 1..10 {
         inv_pow[k] = inv_pow[k - 1] * inv_h;
     }
-    for k in 0..n_s {
-        s[k] *= inv_pow[GRADED_DEGREE[k]];
-        u_bad[k] *= inv_pow[GRADED_DEGREE[k]];
-    }
-    for k in 0..n_z {
-        zm[k] *= inv_pow[GRADED_DEGREE[k] + 1];
-    }
-    for k in 0..n_p {
-        pm[k] *= inv_pow[GRADED_DEGREE[k]];
-        qm[k] *= inv_pow[GRADED_DEGREE[k]];
-    }
-    let with_normals = neighbour_normals.is_some();
-    // Moments over the neighbours whose normals gave slope equations.
+    // Rescaled moments (x → x / h): the conditioning does not depend on the mesh scale.
+    let sc = |k: usize| acc.s[k] * inv_pow[GRADED_DEGREE[k]];
     let t = |a: usize, b: usize| {
-        let i = graded(a, b);
-        if n_bad == 0 {
-            s[i]
-        } else {
-            s[i] - u_bad[i]
-        }
+        let k = graded(a, b);
+        let raw = if acc.n_bad == 0 { acc.s[k] } else { acc.s[k] - acc.bad[k] };
+        raw * inv_pow[GRADED_DEGREE[k]]
     };
     let mut ata = [[0.0f64; MAX_NU]; MAX_NU];
     let mut atb = [0.0f64; MAX_NU];
@@ -546,7 +724,7 @@ fn solve_local_deg<const D: usize>(
         for j in i..nu {
             let (aj, bj, cj) = MONOMIALS[j];
             // Heights: m_i m_j; slopes: ∂x m_i ∂x m_j + ∂y m_i ∂y m_j.
-            let mut v = s[graded(ai + aj, bi + bj)];
+            let mut v = sc(graded(ai + aj, bi + bj));
             if with_normals {
                 if ai > 0 && aj > 0 {
                     v += (ai * aj) as f64 * t(ai + aj - 2, bi + bj);
@@ -557,13 +735,16 @@ fn solve_local_deg<const D: usize>(
             }
             ata[i][j] = ci * cj * v;
         }
-        let mut r = zm[graded(ai, bi)];
+        let k = graded(ai, bi);
+        let mut r = acc.z[k] * inv_pow[GRADED_DEGREE[k] + 1];
         if with_normals {
             if ai > 0 {
-                r += ai as f64 * pm[graded(ai - 1, bi)];
+                let k = graded(ai - 1, bi);
+                r += ai as f64 * acc.px[k] * inv_pow[GRADED_DEGREE[k]];
             }
             if bi > 0 {
-                r += bi as f64 * qm[graded(ai, bi - 1)];
+                let k = graded(ai, bi - 1);
+                r += bi as f64 * acc.py[k] * inv_pow[GRADED_DEGREE[k]];
             }
         }
         atb[i] = ci * r;
