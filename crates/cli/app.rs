@@ -64,6 +64,58 @@ pub enum Command {
         /// Cache folder (default: `.crestflow/cache` next to the graph file).
         #[arg(long, value_name = "DIR")]
         cache: Option<PathBuf>,
+        /// Run once per file matching this glob (sorted), e.g. `--each 'scans/*.ply'`.
+        #[arg(long, value_name = "GLOB")]
+        each: Option<String>,
+        /// With --each: the graph param each file is bound to.
+        #[arg(long, value_name = "PARAM", default_value = "mesh")]
+        bind: String,
+        /// With --each: files processed at once.
+        #[arg(long, default_value_t = 1)]
+        jobs: usize,
+    },
+    /// Rerun a pipeline when the graph or its input files change; with --inputs, run it for
+    /// every mesh file that appears in those folders.
+    Watch {
+        graph: PathBuf,
+        /// A folder whose new or changed mesh files (obj, off, ply, stl) each run the pipeline.
+        #[arg(long = "inputs", value_name = "DIR")]
+        inputs: Vec<PathBuf>,
+        #[arg(long = "set", value_name = "NAME=VALUE")]
+        set: Vec<String>,
+        /// The graph param a file from an --inputs folder is bound to.
+        #[arg(long, value_name = "PARAM", default_value = "mesh")]
+        bind: String,
+        #[arg(long, value_enum, default_value_t = LogFormat::Human)]
+        log: LogFormat,
+        #[arg(long, default_value_t = 0)]
+        threads: usize,
+        #[arg(long, value_name = "DIR")]
+        cache: Option<PathBuf>,
+        /// Quiet time in milliseconds that ends a burst of file events.
+        #[arg(long, value_name = "MS", default_value_t = 50)]
+        debounce_ms: u64,
+        /// Stop after N finished runs.
+        #[arg(long, value_name = "N")]
+        max_runs: Option<usize>,
+        /// Stop after this many seconds.
+        #[arg(long, value_name = "SECONDS")]
+        exit_after: Option<f64>,
+    },
+    /// Run an experiment file: variants of a graph (swapped node kinds, params, grid and zip
+    /// sweeps, input meshes) on one cache, then a comparison table and plots.
+    Experiment {
+        file: PathBuf,
+        #[arg(long, value_enum, default_value_t = LogFormat::Human)]
+        log: LogFormat,
+        #[arg(long, default_value_t = 0)]
+        threads: usize,
+        /// Cache folder (default: `.crestflow/cache` next to the experiment file).
+        #[arg(long, value_name = "DIR")]
+        cache: Option<PathBuf>,
+        /// Where to write results.csv, results.md and the plots (default: the file's `out`).
+        #[arg(long, value_name = "DIR")]
+        out: Option<PathBuf>,
     },
     /// Check a pipeline without running it.
     Validate {
@@ -149,6 +201,66 @@ pub fn execute(cli: Cli, registry: &Registry) -> i32 {
             no_cache,
             threads,
             cache,
+            each: Some(pattern),
+            bind,
+            jobs,
+        } => crate::batch::each_cmd(
+            registry,
+            &graph,
+            &pattern,
+            &crate::batch::EachOptions {
+                sets: set,
+                bind,
+                jobs,
+                threads,
+                cache,
+                no_cache,
+                ..Default::default()
+            },
+            log,
+        ),
+        Command::Watch {
+            graph,
+            inputs,
+            set,
+            bind,
+            log,
+            threads,
+            cache,
+            debounce_ms,
+            max_runs,
+            exit_after,
+        } => crate::watch::watch_cmd(
+            registry,
+            crate::watch::WatchOptions {
+                graph,
+                inputs,
+                sets: set,
+                bind,
+                cache,
+                threads,
+                debounce: Duration::from_millis(debounce_ms),
+                max_runs,
+                exit_after: exit_after.and_then(|s| Duration::try_from_secs_f64(s.max(0.0)).ok()),
+                ..Default::default()
+            },
+            log,
+        ),
+        Command::Experiment {
+            file,
+            log,
+            threads,
+            cache,
+            out,
+        } => crate::experiment::experiment_cmd(registry, &file, log, threads, cache, out),
+        Command::Run {
+            graph,
+            set,
+            log,
+            no_cache,
+            threads,
+            cache,
+            ..
         } => run_cmd(registry, &graph, &set, log, no_cache, threads, cache),
         Command::Validate { graph, set } => match load(registry, &graph, &set) {
             Ok(plan) => {

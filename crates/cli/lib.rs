@@ -4,6 +4,9 @@
 use crestflow_flow::Registry;
 
 pub mod app;
+pub mod batch;
+pub mod experiment;
+pub mod watch;
 
 /// A registry with every built-in node kind.
 pub fn registry() -> Registry {

@@ -5,6 +5,7 @@
 
 pub mod curvature;
 pub mod fcn;
+pub mod halfedge;
 pub mod io;
 pub mod mesh;
 pub mod shapes;

@@ -23,7 +23,9 @@
 //! linear equations on the slopes, z_x = −a/c and z_y = −b/c (GI04), which pins the cubic terms
 //! (the curvature derivatives) down. Averaged face normals are only first-order accurate on
 //! irregular meshes and would bias those equations, so a first pass fits a positions-only cubic
-//! at every vertex and the second pass uses the normals of those fits.
+//! at every vertex and the second pass uses the normals of those fits. Both passes work in the
+//! frame of the averaged normal (the fitted slopes absorb its error), so the second pass reuses
+//! the first pass' height sums and only adds the neighbours' normals.
 //!
 //! Coordinates are divided by the neighbourhood's RMS distance before the least-squares solve
 //! (normal equations assembled from moments Σ xᵃyᵇ, Cholesky) so the system's conditioning does
@@ -194,7 +196,9 @@ pub fn polynomial_curvature(
         par.map_collect(n, |v| {
             with_scratch(|scratch| {
                 let heights = first[v].1.as_deref();
-                second_pass(v as u32, mesh, &initial, &normals, heights, topo, params, scratch)
+                second_pass(
+                    v as u32, mesh, &initial, &normals, heights, topo, params, scratch,
+                )
             })
         })
     } else {
@@ -297,7 +301,14 @@ fn first_pass(
     if n0 == [0.0; 3] {
         return (n0, None);
     }
-    let rings = gather(v, mesh.n_vertices(), topo, params.rings, min_neighbours(9, false), scratch);
+    let rings = gather(
+        v,
+        mesh.n_vertices(),
+        topo,
+        params.rings,
+        min_neighbours(9, false),
+        scratch,
+    );
     let frame = Frame::new(mesh.positions[v as usize], n0);
     let mut acc = Moments::default();
     // Sums for the final degree (a superset of what the cubic needs: graded prefixes).
@@ -307,13 +318,28 @@ fn first_pass(
     }
     if scratch.ring.len() >= min_neighbours(9, false) {
         if let Some(fit) = solve_moments::<3>(&acc, &frame, false, true) {
-            let heights = Heights { s: acc.s, z: acc.z, h2: acc.h2, count: acc.count, rings };
+            let heights = Heights {
+                s: acc.s,
+                z: acc.z,
+                h2: acc.h2,
+                count: acc.count,
+                rings,
+            };
             return (fit.normal, Some(Box::new(heights)));
         }
     }
     // Lower degrees or a larger neighbourhood, as a plain fit would do.
-    let first = PolynomialParams { use_normals: false, degree: 3, ..params.clone() };
-    let input = FitInput { mesh, frame_normals: initial, neighbour_normals: None, topo };
+    let first = PolynomialParams {
+        use_normals: false,
+        degree: 3,
+        ..params.clone()
+    };
+    let input = FitInput {
+        mesh,
+        frame_normals: initial,
+        neighbour_normals: None,
+        topo,
+    };
     let fit = fit_vertex(v, &input, &first, true, scratch);
     if fit.status == Status::Failed || fit.status == Status::Reduced {
         (n0, None)
@@ -498,13 +524,6 @@ fn solve_local(
     }
 }
 
-/// Index of x^a y^b in graded order (by total degree, then by b).
-#[inline]
-fn graded(a: usize, b: usize) -> usize {
-    let deg = a + b;
-    deg * (deg + 1) / 2 + b
-}
-
 /// Total degree of the monomial at each graded index.
 const GRADED_DEGREE: [usize; 45] = {
     let mut out = [0usize; 45];
@@ -535,6 +554,103 @@ const GRADED_B: [usize; 45] = {
             b += 1;
         }
         deg += 1;
+    }
+    out
+};
+
+/// One entry of AᵀA as moments: c·S[s] + cx·T[x] + cy·T[y] (T: sums over neighbours with a
+/// usable normal; index 45 holds zero for absent terms).
+#[derive(Clone, Copy)]
+struct Entry {
+    c: f64,
+    s: usize,
+    cx: f64,
+    x: usize,
+    cy: f64,
+    y: usize,
+}
+
+/// One entry of Aᵀb: c·Z[z] + cx·P[x] + cy·Q[y] (index 10 of P, Q holds zero).
+#[derive(Clone, Copy)]
+struct Rhs {
+    c: f64,
+    z: usize,
+    cx: f64,
+    x: usize,
+    cy: f64,
+    y: usize,
+}
+
+/// Index of x^a y^b in graded order (by total degree, then by b).
+const fn graded_const(a: usize, b: usize) -> usize {
+    let deg = a + b;
+    deg * (deg + 1) / 2 + b
+}
+
+/// Where each entry of the normal equations comes from, for the unknowns in [`MONOMIALS`]
+/// order (a fit of lower degree uses the leading block).
+const ASSEMBLY: [[Entry; MAX_NU]; MAX_NU] = {
+    let zero = Entry {
+        c: 0.0,
+        s: 45,
+        cx: 0.0,
+        x: 45,
+        cy: 0.0,
+        y: 45,
+    };
+    let mut out = [[zero; MAX_NU]; MAX_NU];
+    let mut i = 0;
+    while i < MAX_NU {
+        let (ai, bi, ci) = MONOMIALS[i];
+        let mut j = 0;
+        while j < MAX_NU {
+            let (aj, bj, cj) = MONOMIALS[j];
+            let mut e = zero;
+            e.c = ci * cj;
+            e.s = graded_const(ai + aj, bi + bj);
+            if ai > 0 && aj > 0 {
+                e.cx = ci * cj * (ai * aj) as f64;
+                e.x = graded_const(ai + aj - 2, bi + bj);
+            }
+            if bi > 0 && bj > 0 {
+                e.cy = ci * cj * (bi * bj) as f64;
+                e.y = graded_const(ai + aj, bi + bj - 2);
+            }
+            out[i][j] = e;
+            j += 1;
+        }
+        i += 1;
+    }
+    out
+};
+
+/// Where each entry of the right-hand side comes from.
+const RHS: [Rhs; MAX_NU] = {
+    let zero = Rhs {
+        c: 0.0,
+        z: 0,
+        cx: 0.0,
+        x: 10,
+        cy: 0.0,
+        y: 10,
+    };
+    let mut out = [zero; MAX_NU];
+    let mut i = 0;
+    while i < MAX_NU {
+        let (a, b, c) = MONOMIALS[i];
+        let mut r = zero;
+        r.c = c;
+        r.z = graded_const(a, b);
+        if a > 0 {
+            r.cx = c * a as f64;
+            r.x = graded_const(a - 1, b);
+        }
+        if b > 0 {
+            r.cy = c * b as f64;
+            r.y = graded_const(a, b - 1);
+        }
+        out[i] = r;
+        i += 1;
     }
     out
 };
@@ -616,18 +732,32 @@ impl Default for Moments {
     }
 }
 
-/// Powers x^0..x^(2D), y^0..y^(2D), then the graded monomials.
+/// The graded monomials of total degree ≤ M: powers x^0..x^M, y^0..y^M first, then the
+/// products.
 #[inline]
-fn monomials<const D: usize>(x: f64, y: f64, mono: &mut [f64; 45]) {
-    let m2 = 2 * D;
+fn monomials<const M: usize>(x: f64, y: f64, mono: &mut [f64; 45]) {
     let mut xp = [1.0f64; 9];
     let mut yp = [1.0f64; 9];
-    for k in 1..=m2 {
+    for k in 1..=M {
         xp[k] = xp[k - 1] * x;
         yp[k] = yp[k - 1] * y;
     }
-    for k in 0..graded_count(m2) {
+    for k in 0..graded_count(M) {
         mono[k] = xp[GRADED_DEGREE[k] - GRADED_B[k]] * yp[GRADED_B[k]];
+    }
+}
+
+/// [`monomials`] for a runtime degree bound known to be a small constant per call site.
+#[inline]
+fn monomials_upto(deg: usize, x: f64, y: f64, mono: &mut [f64; 45]) {
+    match deg {
+        0 => mono[0] = 1.0,
+        1 => monomials::<1>(x, y, mono),
+        2 => monomials::<2>(x, y, mono),
+        3 => monomials::<3>(x, y, mono),
+        4 => monomials::<4>(x, y, mono),
+        6 => monomials::<6>(x, y, mono),
+        _ => monomials::<8>(x, y, mono),
     }
 }
 
@@ -640,12 +770,12 @@ impl Moments {
             let dv = vec3::sub(mesh.positions[w as usize], f.p);
             self.h2 += vec3::dot(dv, dv);
             let (x, y, z) = (vec3::dot(dv, f.e1), vec3::dot(dv, f.e2), vec3::dot(dv, f.n));
-            monomials::<D>(x, y, &mut mono);
-            for k in 0..n_s {
-                self.s[k] += mono[k];
+            monomials_upto(2 * D, x, y, &mut mono);
+            for (sk, mk) in self.s[..n_s].iter_mut().zip(&mono) {
+                *sk += mk;
             }
-            for k in 0..n_z {
-                self.z[k] += z * mono[k];
+            for (zk, mk) in self.z[..n_z].iter_mut().zip(&mono) {
+                *zk += z * mk;
             }
         }
         self.count += ring.len();
@@ -669,18 +799,22 @@ impl Moments {
             let (a, b, c) = (vec3::dot(nw, f.e1), vec3::dot(nw, f.e2), vec3::dot(nw, f.n));
             // A neighbour normal tilted by more than ~70° says nothing reliable about slopes.
             if c > 0.34 {
-                monomials::<D>(x, y, &mut mono);
+                monomials_upto(D - 1, x, y, &mut mono);
                 let (gx, gy) = (-a / c, -b / c);
-                for k in 0..n_p {
-                    self.px[k] += gx * mono[k];
-                    self.py[k] += gy * mono[k];
+                for ((pk, qk), mk) in self.px[..n_p]
+                    .iter_mut()
+                    .zip(&mut self.py[..n_p])
+                    .zip(&mono)
+                {
+                    *pk += gx * mk;
+                    *qk += gy * mk;
                 }
                 self.rows += 2;
             } else {
-                monomials::<D>(x, y, &mut mono);
+                monomials_upto(2 * D - 2, x, y, &mut mono);
                 self.n_bad += 1;
-                for k in 0..n_u {
-                    self.bad[k] += mono[k];
+                for (bk, mk) in self.bad[..n_u].iter_mut().zip(&mono) {
+                    *bk += mk;
                 }
             }
         }
@@ -711,43 +845,41 @@ fn solve_moments<const D: usize>(
         inv_pow[k] = inv_pow[k - 1] * inv_h;
     }
     // Rescaled moments (x → x / h): the conditioning does not depend on the mesh scale.
-    let sc = |k: usize| acc.s[k] * inv_pow[GRADED_DEGREE[k]];
-    let t = |a: usize, b: usize| {
-        let k = graded(a, b);
-        let raw = if acc.n_bad == 0 { acc.s[k] } else { acc.s[k] - acc.bad[k] };
-        raw * inv_pow[GRADED_DEGREE[k]]
-    };
+    // Index 45 (and 10) stays zero: the tables point there for absent terms.
+    let mut ss = [0.0f64; 46];
+    let mut tt = [0.0f64; 46];
+    for k in 0..graded_count(2 * D) {
+        ss[k] = acc.s[k] * inv_pow[GRADED_DEGREE[k]];
+    }
+    if with_normals {
+        // Sums over the neighbours whose normals gave slope equations.
+        for k in 0..graded_count(2 * D - 2) {
+            tt[k] = (acc.s[k] - acc.bad[k]) * inv_pow[GRADED_DEGREE[k]];
+        }
+    }
+    let mut zz = [0.0f64; 15];
+    for k in 0..graded_count(D) {
+        zz[k] = acc.z[k] * inv_pow[GRADED_DEGREE[k] + 1];
+    }
+    let mut pp = [0.0f64; 11];
+    let mut qq = [0.0f64; 11];
+    if with_normals {
+        for k in 0..graded_count(D - 1) {
+            pp[k] = acc.px[k] * inv_pow[GRADED_DEGREE[k]];
+            qq[k] = acc.py[k] * inv_pow[GRADED_DEGREE[k]];
+        }
+    }
     let mut ata = [[0.0f64; MAX_NU]; MAX_NU];
     let mut atb = [0.0f64; MAX_NU];
     for i in 0..nu {
-        let (ai, bi, ci) = MONOMIALS[i];
+        let tab = &ASSEMBLY[i];
         for j in i..nu {
-            let (aj, bj, cj) = MONOMIALS[j];
             // Heights: m_i m_j; slopes: ∂x m_i ∂x m_j + ∂y m_i ∂y m_j.
-            let mut v = sc(graded(ai + aj, bi + bj));
-            if with_normals {
-                if ai > 0 && aj > 0 {
-                    v += (ai * aj) as f64 * t(ai + aj - 2, bi + bj);
-                }
-                if bi > 0 && bj > 0 {
-                    v += (bi * bj) as f64 * t(ai + aj, bi + bj - 2);
-                }
-            }
-            ata[i][j] = ci * cj * v;
+            let e = &tab[j];
+            ata[i][j] = e.c * ss[e.s] + e.cx * tt[e.x] + e.cy * tt[e.y];
         }
-        let k = graded(ai, bi);
-        let mut r = acc.z[k] * inv_pow[GRADED_DEGREE[k] + 1];
-        if with_normals {
-            if ai > 0 {
-                let k = graded(ai - 1, bi);
-                r += ai as f64 * acc.px[k] * inv_pow[GRADED_DEGREE[k]];
-            }
-            if bi > 0 {
-                let k = graded(ai, bi - 1);
-                r += bi as f64 * acc.py[k] * inv_pow[GRADED_DEGREE[k]];
-            }
-        }
-        atb[i] = ci * r;
+        let r = &RHS[i];
+        atb[i] = r.c * zz[r.z] + r.cx * pp[r.x] + r.cy * qq[r.y];
     }
     let u = match D {
         2 => cholesky_solve::<5>(&mut ata, &mut atb)?,

@@ -61,7 +61,11 @@ impl RigidTransform {
     /// Rotation by `angle` radians about the line through `center` with direction `axis`.
     pub fn rotation_about(axis: V3, angle: f64, center: V3) -> Self {
         let n = norm(axis);
-        let a = if n > 0.0 { scale(axis, 1.0 / n) } else { [0.0, 0.0, 1.0] };
+        let a = if n > 0.0 {
+            scale(axis, 1.0 / n)
+        } else {
+            [0.0, 0.0, 1.0]
+        };
         let (s, c) = (0.5 * angle).sin_cos();
         let r = Self::from_quaternion([c, a[0] * s, a[1] * s, a[2] * s]);
         // x ↦ R (x − c) + c
@@ -245,7 +249,11 @@ pub fn kabsch(a: &[V3], b: &[V3], w: Option<&[f64]>) -> ([[f64; 3]; 3], [f64; 3]
         diag[(2, 2)] = -1.0;
     }
     let r = v * diag * u.transpose();
-    let mut sv = [svd.singular_values[0], svd.singular_values[1], svd.singular_values[2]];
+    let mut sv = [
+        svd.singular_values[0],
+        svd.singular_values[1],
+        svd.singular_values[2],
+    ];
     sv.sort_by(|x, y| y.total_cmp(x));
     let mut out = [[0.0; 3]; 3];
     for (i, row) in out.iter_mut().enumerate() {
@@ -340,7 +348,11 @@ mod tests {
         assert!(slide.abs() < 1e-12);
         assert!(dist(a.apply(c), c) < 1e-12);
         // T³ of a 120° rotation is the identity
-        let r3 = RigidTransform::rotation_about([0.0, 0.0, 1.0], 2.0 * std::f64::consts::PI / 3.0, [1.0, 2.0, 0.0]);
+        let r3 = RigidTransform::rotation_about(
+            [0.0, 0.0, 1.0],
+            2.0 * std::f64::consts::PI / 3.0,
+            [1.0, 2.0, 0.0],
+        );
         assert!(r3.power(3).angle_deg() < 1e-6);
         assert!(dist(r3.power(3).translation, [0.0; 3]) < 1e-12);
     }

@@ -1,0 +1,648 @@
+//! `spectral.eigenbasis`: the k smallest eigenpairs of the generalized problem `L φ = λ M φ`
+//! (thesis §2.3; the basis of the functional maps of §2.6.3 and §5.2, Ovsjanikov et al. 2012).
+//!
+//! Method: block shift-invert Lanczos with full reorthogonalisation and thick restarts
+//! (Krylov–Schur style; Grimes, Lewis, Simon 1994 for the shift-invert block Lanczos idea,
+//! Stewart 2001 for Krylov–Schur restarts). The operator is `S = (L − σM)⁻¹ M`, self-adjoint
+//! in the M-inner product, whose largest eigenvalues `θ = 1 / (λ − σ)` belong to the smallest
+//! `λ`. `L − σM` is factorised once by sparse Cholesky ([`SpdSolver`]); each Lanczos step
+//! solves for a whole block of `b` right-hand sides. A block (rather than a single vector) is
+//! what finds every copy of a repeated eigenvalue (the icosphere's multiplicities 1, 3, 5, …,
+//! a disconnected mesh's zeros) up to multiplicity `b`.
+//!
+//! The shift is relative: `σ = −shift · n / area`, with `n / area` the scale of the largest
+//! eigenvalues, so it is a tiny fraction of the spectrum at any mesh size or unit.
+//!
+//! Convergence: a Ritz pair `(θ, y)` is accepted when `‖S y − θ y‖_M ≤ tol · θ` (read off the
+//! Lanczos coupling block, no extra solve). The output reports the true backward errors
+//! `‖L φ − λ M φ‖ / ((‖L‖₁ + |λ| ‖M‖₁) ‖φ‖)` and the M-orthonormality error
+//! `max |Φᵀ M Φ − I|`.
+//!
+//! Small problems (`n` not larger than twice the Krylov space) are solved densely
+//! (nalgebra's symmetric eigensolver on `M^{-1/2} L M^{-1/2}`).
+//!
+//! Vertices with zero mass (not referenced by any triangle) are left out of the problem:
+//! their entries in every eigenvector are 0.
+//!
+//! Determinism: the start block comes from a seeded SplitMix64 stream; dense block products
+//! are split in fixed row chunks whose partial sums are added in chunk order; sparse solves
+//! split columns in fixed groups. `Par::Seq` and `Par::Rayon` give the same bits. Each
+//! eigenvector's sign is fixed: its entry of largest magnitude is positive.
+
+use faer::linalg::matmul::matmul;
+use faer::{Accum, Mat, MatRef};
+use serde::{Deserialize, Serialize};
+
+use crestflow_flow::{
+    check_range, Ctx, ErrorKind, Inputs, NodeError, NodeKind, Outputs, Par, ParamIssue, Port,
+    Validate,
+};
+
+use crate::laplacian::LaplacianOperator;
+use crate::sparse::{CsrMatrix, SparseError, SpdSolver};
+
+/// Parameters of `spectral.eigenbasis`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct EigenbasisParams {
+    /// Number of eigenpairs (default 60, range 1..=2000).
+    pub k: usize,
+    /// Relative shift: σ = −shift · n / area (default 1e-8, range 1e-14..=1e-2).
+    pub shift: f64,
+    /// Ritz pairs are accepted when ‖S y − θ y‖_M ≤ tol · θ (default 1e-10, range
+    /// 1e-14..=1e-4).
+    pub tol: f64,
+    /// Block size; 0 chooses it from k (default 0, range 0..=256).
+    pub block: usize,
+    /// Most block Lanczos steps before giving up (default 1000, range 1..=100000).
+    pub max_steps: usize,
+    /// Seed of the random start block (default 0).
+    pub seed: u64,
+}
+
+impl Default for EigenbasisParams {
+    fn default() -> Self {
+        EigenbasisParams {
+            k: 60,
+            shift: 1e-8,
+            tol: 1e-10,
+            block: 0,
+            max_steps: 1000,
+            seed: 0,
+        }
+    }
+}
+
+impl Validate for EigenbasisParams {
+    fn validate(&self) -> Vec<ParamIssue> {
+        let mut issues = Vec::new();
+        check_range(&mut issues, "k", self.k, 1, 2000);
+        check_range(&mut issues, "shift", self.shift, 1e-14, 1e-2);
+        check_range(&mut issues, "tol", self.tol, 1e-14, 1e-4);
+        check_range(&mut issues, "block", self.block, 0, 256);
+        check_range(&mut issues, "max_steps", self.max_steps, 1, 100_000);
+        issues
+    }
+}
+
+/// The k smallest eigenpairs of `L φ = λ M φ`, M-orthonormal.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct EigenBasis {
+    /// Number of vertices (rows of each eigenvector).
+    pub n: usize,
+    /// Eigenvalues, ascending.
+    pub values: Vec<f64>,
+    /// Eigenvectors, `n × k` column-major: vector `i` is `vectors[i·n .. (i+1)·n]`.
+    pub vectors: Vec<f64>,
+    /// The lumped mass diagonal the basis is orthonormal for (`Φᵀ M Φ = I`).
+    pub mass: Vec<f64>,
+    /// Largest backward error `‖L φ − λ M φ‖ / ((‖L‖₁ + |λ| ‖M‖₁) ‖φ‖)` over the pairs.
+    pub max_residual: f64,
+    /// `max |Φᵀ M Φ − I|`.
+    pub max_orthonormality_error: f64,
+    /// Sparse solves (right-hand sides) used.
+    pub solves: usize,
+}
+
+impl EigenBasis {
+    /// Number of eigenpairs.
+    pub fn k(&self) -> usize {
+        self.values.len()
+    }
+    /// Eigenvector `i`.
+    pub fn vector(&self, i: usize) -> &[f64] {
+        &self.vectors[i * self.n..(i + 1) * self.n]
+    }
+}
+
+/// Errors of [`eigenbasis`].
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum EigenbasisError {
+    #[error("the operator has {n_mass} masses but the stiffness matrix is {rows}×{cols}")]
+    SizeMismatch {
+        n_mass: usize,
+        rows: usize,
+        cols: usize,
+    },
+    #[error("vertex {vertex} has mass {mass}: masses must be finite and not negative")]
+    BadMass { vertex: usize, mass: f64 },
+    #[error("k = {k} eigenpairs asked but the mesh has only {n} vertices with mass")]
+    TooFewVertices { k: usize, n: usize },
+    #[error(
+        "only {converged} of {k} eigenpairs converged in {steps} block steps (worst relative \
+         Ritz residual {worst:e}); raise max_steps or tol"
+    )]
+    NotConverged {
+        converged: usize,
+        k: usize,
+        steps: usize,
+        worst: f64,
+    },
+    #[error("the Krylov basis lost rank at block step {step}")]
+    Breakdown { step: usize },
+    #[error("the shifted matrix L − σM could not be factorised: {0}")]
+    Factorization(#[from] SparseError),
+    #[error("cancelled")]
+    Cancelled,
+}
+
+/// SplitMix64: a seeded, portable stream for the start block.
+struct SplitMix64(u64);
+
+impl SplitMix64 {
+    fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+    /// Uniform in [-1, 1).
+    fn symmetric(&mut self) -> f64 {
+        (self.next_u64() >> 11) as f64 * (2.0 / (1u64 << 53) as f64) - 1.0
+    }
+}
+
+/// Rows per piece of a dense block product: fixed, so sums do not depend on thread count.
+const ROW_CHUNK: usize = 2048;
+
+fn mref(v: &[f64], rows: usize, cols: usize) -> MatRef<'_, f64> {
+    MatRef::from_column_major_slice(v, rows, cols)
+}
+
+/// `Aᵀ D B` for column-major `A` (n × p), `B` (n × q) and an optional diagonal `D`: partial
+/// products over fixed row chunks, summed in chunk order. Returns p × q column-major.
+fn at_d_b(a: &[f64], p: usize, d: Option<&[f64]>, b: &[f64], q: usize, n: usize, par: Par) -> Vec<f64> {
+    let chunks = n.div_ceil(ROW_CHUNK);
+    let parts = par.map_collect(chunks, |c| {
+        let r0 = c * ROW_CHUNK;
+        let len = ROW_CHUNK.min(n - r0);
+        let am = mref(a, n, p).subrows(r0, len);
+        let mut out = Mat::<f64>::zeros(p, q);
+        match d {
+            None => {
+                let bm = mref(b, n, q).subrows(r0, len);
+                matmul(out.as_mut(), Accum::Replace, am.transpose(), bm, 1.0, faer::Par::Seq);
+            }
+            Some(d) => {
+                let db = Mat::<f64>::from_fn(len, q, |i, j| d[r0 + i] * b[j * n + r0 + i]);
+                matmul(out.as_mut(), Accum::Replace, am.transpose(), db.as_ref(), 1.0, faer::Par::Seq);
+            }
+        }
+        out
+    });
+    let mut sum = vec![0.0; p * q];
+    for part in parts {
+        for j in 0..q {
+            for i in 0..p {
+                sum[j * p + i] += part[(i, j)];
+            }
+        }
+    }
+    sum
+}
+
+/// `A X` for column-major `A` (n × p) and `X` (p × q); returns n × q column-major.
+fn a_x(a: &[f64], p: usize, x: &[f64], q: usize, n: usize, par: Par) -> Vec<f64> {
+    let chunks = n.div_ceil(ROW_CHUNK);
+    let parts = par.map_collect(chunks, |c| {
+        let r0 = c * ROW_CHUNK;
+        let len = ROW_CHUNK.min(n - r0);
+        let am = mref(a, n, p).subrows(r0, len);
+        let mut out = Mat::<f64>::zeros(len, q);
+        matmul(out.as_mut(), Accum::Replace, am, mref(x, p, q), 1.0, faer::Par::Seq);
+        out
+    });
+    let mut y = vec![0.0; n * q];
+    for (c, part) in parts.into_iter().enumerate() {
+        let r0 = c * ROW_CHUNK;
+        for j in 0..q {
+            for i in 0..part.nrows() {
+                y[j * n + r0 + i] = part[(i, j)];
+            }
+        }
+    }
+    y
+}
+
+/// `W −= V C` in place (V: n × p, C: p × q, W: n × q).
+fn sub_a_x(w: &mut [f64], v: &[f64], p: usize, c: &[f64], q: usize, n: usize, par: Par) {
+    let vc = a_x(v, p, c, q, n, par);
+    for (wi, x) in w.iter_mut().zip(vc) {
+        *wi -= x;
+    }
+}
+
+/// Symmetric eigen-decomposition of a small dense matrix (column-major, symmetrised), with
+/// eigenvalues sorted descending (ties by index) and the vectors in the same order.
+fn sym_eig_desc(h: &[f64], m: usize) -> (Vec<f64>, Vec<f64>) {
+    let mut a = nalgebra::DMatrix::<f64>::from_column_slice(m, m, h);
+    let at = a.transpose();
+    a = (a + at) * 0.5;
+    let e = a.symmetric_eigen();
+    let mut order: Vec<usize> = (0..m).collect();
+    order.sort_by(|&i, &j| e.eigenvalues[j].total_cmp(&e.eigenvalues[i]).then(i.cmp(&j)));
+    let vals = order.iter().map(|&i| e.eigenvalues[i]).collect();
+    let mut vecs = vec![0.0; m * m];
+    for (c, &i) in order.iter().enumerate() {
+        for r in 0..m {
+            vecs[c * m + r] = e.eigenvectors[(r, i)];
+        }
+    }
+    (vals, vecs)
+}
+
+/// M-orthonormalises the columns of `w` (n × q) by SVQB (Stathopoulos & Wu 2002):
+/// `G = Wᵀ M W = U D Uᵀ`, `W ← W U D^{-1/2}`. Returns the q × q factor `R` with
+/// `W_old = W_new R`, or `None` when the block is rank deficient.
+fn svqb(w: &mut [f64], q: usize, mass: &[f64], n: usize, par: Par) -> Option<Vec<f64>> {
+    let g = at_d_b(w, q, Some(mass), w, q, n, par);
+    let (d, u) = sym_eig_desc(&g, q);
+    let dmax = d.first().copied().unwrap_or(0.0);
+    if !(dmax > 0.0) || d.iter().any(|&x| !(x > 1e-26 * dmax)) {
+        return None;
+    }
+    // T = U D^{-1/2}: W ← W T; R = D^{1/2} Uᵀ.
+    let mut t = u.clone();
+    let mut r = vec![0.0; q * q];
+    for j in 0..q {
+        let s = d[j].sqrt();
+        for i in 0..q {
+            t[j * q + i] /= s;
+            // R[j, i] = sqrt(d_j) U[i, j]
+            r[i * q + j] = s * u[j * q + i];
+        }
+    }
+    let new = a_x(w, q, &t, q, n, par);
+    w.copy_from_slice(&new);
+    Some(r)
+}
+
+/// `C = Vᵀ M W` and `W −= V C`, twice; returns the summed coefficients (p × q).
+fn orthogonalize(w: &mut [f64], q: usize, v: &[f64], p: usize, mass: &[f64], n: usize, par: Par) -> Vec<f64> {
+    let mut total = vec![0.0; p * q];
+    if p == 0 {
+        return total;
+    }
+    for _ in 0..2 {
+        let c = at_d_b(v, p, Some(mass), w, q, n, par);
+        sub_a_x(w, v, p, &c, q, n, par);
+        for (t, x) in total.iter_mut().zip(&c) {
+            *t += x;
+        }
+    }
+    total
+}
+
+/// The k smallest eigenpairs of `op` (module docs).
+pub fn eigenbasis(
+    op: &LaplacianOperator,
+    params: &EigenbasisParams,
+    par: Par,
+) -> Result<EigenBasis, EigenbasisError> {
+    eigenbasis_with_cancel(op, params, par, &|| false)
+}
+
+/// [`eigenbasis`] polling `cancelled` between block steps.
+pub fn eigenbasis_with_cancel(
+    op: &LaplacianOperator,
+    params: &EigenbasisParams,
+    par: Par,
+    cancelled: &(dyn Fn() -> bool + Sync),
+) -> Result<EigenBasis, EigenbasisError> {
+    let n_all = op.mass.len();
+    let l_all = &op.stiffness;
+    if l_all.nrows() != n_all || l_all.ncols() != n_all {
+        return Err(EigenbasisError::SizeMismatch {
+            n_mass: n_all,
+            rows: l_all.nrows(),
+            cols: l_all.ncols(),
+        });
+    }
+    l_all.check()?;
+    if let Some((vertex, &mass)) = op
+        .mass
+        .iter()
+        .enumerate()
+        .find(|(_, m)| !(m.is_finite() && **m >= 0.0))
+    {
+        return Err(EigenbasisError::BadMass { vertex, mass });
+    }
+    // Active vertices: those with mass.
+    let active: Vec<usize> = (0..n_all).filter(|&i| op.mass[i] > 0.0).collect();
+    let n = active.len();
+    let k = params.k;
+    if k == 0 || k > n {
+        return Err(EigenbasisError::TooFewVertices { k, n });
+    }
+    let (l, mass) = if n == n_all {
+        (l_all.clone(), op.mass.clone())
+    } else {
+        let mut new_index = vec![usize::MAX; n_all];
+        for (j, &i) in active.iter().enumerate() {
+            new_index[i] = j;
+        }
+        let mut trip = Vec::with_capacity(l_all.nnz());
+        for (j, &i) in active.iter().enumerate() {
+            for (c, v) in l_all.row(i) {
+                if new_index[c] != usize::MAX {
+                    trip.push((j, new_index[c], v));
+                }
+            }
+        }
+        (
+            CsrMatrix::from_triplets(n, n, &trip)?,
+            active.iter().map(|&i| op.mass[i]).collect(),
+        )
+    };
+    let area: f64 = mass.iter().sum();
+    let sigma = -params.shift * n as f64 / area;
+
+    let block = if params.block > 0 {
+        params.block
+    } else {
+        (k.div_ceil(4).div_ceil(8) * 8).clamp(8, 32)
+    };
+    let m_max = (2 * k + 2 * block).max(k + 4 * block);
+
+    let (values, vectors, solves) = if n <= 2 * (m_max + block) {
+        let (v, x) = dense_eig(&l, &mass, k);
+        (v, x, 0)
+    } else {
+        lanczos(&l, &mass, sigma, k, block, m_max, params, par, cancelled)?
+    };
+
+    // Scatter back to all vertices, fix signs, measure.
+    let mut full = vec![0.0; n_all * k];
+    for i in 0..k {
+        let col = &vectors[i * n..(i + 1) * n];
+        let mut best = 0usize;
+        for (j, x) in col.iter().enumerate() {
+            if x.abs() > col[best].abs() {
+                best = j;
+            }
+        }
+        let s = if col[best] < 0.0 { -1.0 } else { 1.0 };
+        for (j, &a) in active.iter().enumerate() {
+            full[i * n_all + a] = s * col[j];
+        }
+    }
+    let (max_residual, max_orthonormality_error) =
+        quality(l_all, &op.mass, &values, &full, par)?;
+    Ok(EigenBasis {
+        n: n_all,
+        values,
+        vectors: full,
+        mass: op.mass.clone(),
+        max_residual,
+        max_orthonormality_error,
+        solves,
+    })
+}
+
+/// Backward errors and M-orthonormality of a basis (module docs).
+pub fn quality(
+    l: &CsrMatrix,
+    mass: &[f64],
+    values: &[f64],
+    vectors: &[f64],
+    par: Par,
+) -> Result<(f64, f64), SparseError> {
+    let n = mass.len();
+    let k = values.len();
+    let lx = l.mul_dense(vectors, k, par)?;
+    let norm_l = l.norm1();
+    let norm_m = mass.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
+    let res = par.map_collect(k, |i| {
+        let x = &vectors[i * n..(i + 1) * n];
+        let lxi = &lx[i * n..(i + 1) * n];
+        let mut r2 = 0.0;
+        let mut x2 = 0.0;
+        for j in 0..n {
+            let r = lxi[j] - values[i] * mass[j] * x[j];
+            r2 += r * r;
+            x2 += x[j] * x[j];
+        }
+        r2.sqrt() / ((norm_l + values[i].abs() * norm_m) * x2.sqrt() + 1e-300)
+    });
+    let g = at_d_b(vectors, k, Some(mass), vectors, k, n, par);
+    let mut orth: f64 = 0.0;
+    for j in 0..k {
+        for i in 0..k {
+            let e = if i == j { 1.0 } else { 0.0 };
+            orth = orth.max((g[j * k + i] - e).abs());
+        }
+    }
+    Ok((res.into_iter().fold(0.0, f64::max), orth))
+}
+
+/// Dense path for small problems: eigen-decomposition of `M^{-1/2} L M^{-1/2}`.
+fn dense_eig(l: &CsrMatrix, mass: &[f64], k: usize) -> (Vec<f64>, Vec<f64>) {
+    let n = mass.len();
+    let mut a = nalgebra::DMatrix::<f64>::zeros(n, n);
+    for i in 0..n {
+        for (j, v) in l.row(i) {
+            a[(i, j)] = v / (mass[i] * mass[j]).sqrt();
+        }
+    }
+    let at = a.transpose();
+    a = (a + at) * 0.5;
+    let e = a.symmetric_eigen();
+    let mut order: Vec<usize> = (0..n).collect();
+    order.sort_by(|&i, &j| e.eigenvalues[i].total_cmp(&e.eigenvalues[j]).then(i.cmp(&j)));
+    let mut vals = Vec::with_capacity(k);
+    let mut vecs = vec![0.0; n * k];
+    for (c, &i) in order.iter().take(k).enumerate() {
+        vals.push(e.eigenvalues[i]);
+        for r in 0..n {
+            vecs[c * n + r] = e.eigenvectors[(r, i)] / mass[r].sqrt();
+        }
+    }
+    (vals, vecs)
+}
+
+/// Block shift-invert Lanczos with full reorthogonalisation and thick restarts.
+#[allow(clippy::too_many_arguments)]
+fn lanczos(
+    l: &CsrMatrix,
+    mass: &[f64],
+    sigma: f64,
+    k: usize,
+    b: usize,
+    m_max: usize,
+    params: &EigenbasisParams,
+    par: Par,
+    cancelled: &(dyn Fn() -> bool + Sync),
+) -> Result<(Vec<f64>, Vec<f64>, usize), EigenbasisError> {
+    let n = mass.len();
+    let shifted = l.add_diagonal(&mass.iter().map(|m| -sigma * m).collect::<Vec<_>>())?;
+    let solver = SpdSolver::new(&shifted)?;
+    let cap = m_max + b;
+    // Basis V (n × cap), H (cap × cap) column-major.
+    let mut v = vec![0.0; n * cap];
+    let mut h = vec![0.0; cap * cap];
+    let mut rng = SplitMix64(params.seed ^ 0x5EED_0F_C0DE);
+    {
+        let start = &mut v[..n * b];
+        for x in start.iter_mut() {
+            *x = rng.symmetric();
+        }
+        if svqb(start, b, mass, n, par).is_none() {
+            return Err(EigenbasisError::Breakdown { step: 0 });
+        }
+    }
+    // Columns 0..m form the basis; columns m..m+b hold the pending block.
+    let mut m = 0usize;
+    let mut solves = 0usize;
+    let mut steps = 0usize;
+    loop {
+        if cancelled() {
+            return Err(EigenbasisError::Cancelled);
+        }
+        // Expand the pending block: W = S V_J = (L − σM)⁻¹ M V_J.
+        let j0 = m;
+        let mut w: Vec<f64> = (0..n * b).map(|t| mass[t % n] * v[j0 * n + t]).collect();
+        solver.solve_many(&mut w, b, par)?;
+        solves += b;
+        steps += 1;
+        let p = m + b;
+        let c = orthogonalize(&mut w, b, &v[..n * p], p, mass, n, par);
+        let r1 = svqb(&mut w, b, mass, n, par).ok_or(EigenbasisError::Breakdown { step: steps })?;
+        let c2 = orthogonalize(&mut w, b, &v[..n * p], p, mass, n, par);
+        let r2 = svqb(&mut w, b, mass, n, par).ok_or(EigenbasisError::Breakdown { step: steps })?;
+        // W_orig = V (c + c2 R1) + Q (R2 R1).
+        for jj in 0..b {
+            for i in 0..p {
+                let mut s = c[jj * p + i];
+                for t in 0..b {
+                    s += c2[t * p + i] * r1[jj * b + t];
+                }
+                h[(j0 + jj) * cap + i] = s;
+            }
+            for i in 0..b {
+                let mut s = 0.0;
+                for t in 0..b {
+                    s += r2[t * b + i] * r1[jj * b + t];
+                }
+                h[(j0 + jj) * cap + p + i] = s;
+            }
+        }
+        v[n * p..n * (p + b)].copy_from_slice(&w);
+        m = p;
+
+        if m < k {
+            continue;
+        }
+        // Rayleigh–Ritz on the basis.
+        let mut hm = vec![0.0; m * m];
+        for jj in 0..m {
+            hm[jj * m..(jj + 1) * m].copy_from_slice(&h[jj * cap..jj * cap + m]);
+        }
+        let (theta, y) = sym_eig_desc(&hm, m);
+        // Residual of Ritz pair i: ‖H[m..m+b, 0..m] y_i‖.
+        let resid = |i: usize| -> f64 {
+            let mut s2 = 0.0;
+            for r in 0..b {
+                let mut s = 0.0;
+                for jj in 0..m {
+                    s += h[jj * cap + m + r] * y[i * m + jj];
+                }
+                s2 += s * s;
+            }
+            s2.sqrt()
+        };
+        let rel: Vec<f64> = (0..k).map(|i| resid(i) / theta[i].abs().max(1e-300)).collect();
+        let converged = rel.iter().take_while(|&&r| r <= params.tol).count();
+        if converged == k {
+            let vals: Vec<f64> = theta[..k].iter().map(|t| sigma + 1.0 / t).collect();
+            let vecs = a_x(&v[..n * m], m, &y[..m * k], k, n, par);
+            return Ok((vals, vecs, solves));
+        }
+        if steps >= params.max_steps {
+            return Err(EigenbasisError::NotConverged {
+                converged,
+                k,
+                steps,
+                worst: rel.iter().fold(0.0, |a: f64, &b| a.max(b)),
+            });
+        }
+        if m + b > m_max {
+            // Thick restart: keep the `keep` best Ritz vectors and the pending block.
+            let keep = (k + b).min(m - b);
+            let ritz = a_x(&v[..n * m], m, &y[..m * keep], keep, n, par);
+            let pending = v[n * m..n * (m + b)].to_vec();
+            // Coupling of the pending block to the kept Ritz vectors: H[m.., 0..m] Y.
+            let mut z = vec![0.0; b * keep];
+            for i in 0..keep {
+                for r in 0..b {
+                    let mut s = 0.0;
+                    for jj in 0..m {
+                        s += h[jj * cap + m + r] * y[i * m + jj];
+                    }
+                    z[i * b + r] = s;
+                }
+            }
+            v[..n * keep].copy_from_slice(&ritz);
+            v[n * keep..n * (keep + b)].copy_from_slice(&pending);
+            h.iter_mut().for_each(|x| *x = 0.0);
+            for i in 0..keep {
+                h[i * cap + i] = theta[i];
+                for r in 0..b {
+                    h[i * cap + keep + r] = z[i * b + r];
+                    h[(keep + r) * cap + i] = z[i * b + r];
+                }
+            }
+            m = keep;
+        }
+    }
+}
+
+/// Node wrapper of [`eigenbasis`].
+pub struct EigenbasisNode;
+
+impl NodeKind for EigenbasisNode {
+    type Params = EigenbasisParams;
+    const KIND: &'static str = "spectral.eigenbasis";
+    const VERSION: u32 = 1;
+    const DOC: &'static str = "The k smallest eigenpairs of the Laplace-Beltrami operator, \
+        L phi = lambda M phi, M-orthonormal (thesis §2.3, §2.6.3; the basis of functional \
+        maps, Ovsjanikov et al. 2012). Block shift-invert Lanczos with full \
+        reorthogonalisation and thick restarts on a sparse Cholesky factorisation of L - sigma \
+        M; finds repeated eigenvalues. A separate node so that downstream changes never \
+        recompute it. Output: an EigenBasis.";
+
+    fn inputs() -> Vec<Port> {
+        vec![Port::of::<LaplacianOperator>(
+            "operator",
+            "stiffness L and mass M (spectral.laplacian)",
+        )]
+    }
+    fn outputs() -> Vec<Port> {
+        vec![Port::of::<EigenBasis>(
+            "basis",
+            "eigenvalues ascending and M-orthonormal eigenvectors (n × k column-major)",
+        )]
+    }
+    fn run(params: &Self::Params, inputs: &Inputs, ctx: &Ctx) -> Result<Outputs, NodeError> {
+        let op = inputs.get::<LaplacianOperator>("operator")?;
+        ctx.check_cancelled()?;
+        let cancel = ctx.cancel.clone();
+        let basis = eigenbasis_with_cancel(op, params, ctx.par, &move || cancel.is_cancelled())
+            .map_err(|e| match e {
+                EigenbasisError::Cancelled => NodeError::cancelled(),
+                EigenbasisError::SizeMismatch { .. }
+                | EigenbasisError::BadMass { .. }
+                | EigenbasisError::TooFewVertices { .. } => {
+                    NodeError::from_source(ErrorKind::InvalidInput, e)
+                }
+                _ => NodeError::from_source(ErrorKind::NumericalFailure, e),
+            })?;
+        if basis.max_residual > 1e-8 {
+            ctx.warn(&format!(
+                "largest relative residual {:e} exceeds 1e-8",
+                basis.max_residual
+            ));
+        }
+        Ok(Outputs::new().with("basis", basis))
+    }
+}

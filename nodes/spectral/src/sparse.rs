@@ -1,0 +1,877 @@
+//! Sparse matrices and the discrete Laplace–Beltrami operator (thesis §2.3), shared by the
+//! node families that solve linear systems on meshes (spectral, smoothing, functional maps).
+//!
+//! - [`CsrMatrix`]: a compressed-sparse-row `f64` matrix with sorted, duplicate-free columns.
+//!   For a symmetric matrix its arrays are also the compressed-sparse-column arrays.
+//! - [`cotan_laplacian`] / [`lumped_mass`] (or [`laplacian_and_mass`] with options): the
+//!   cotangent stiffness matrix in the positive semi-definite convention
+//!   `L_ij = −½ (cot α_ij + cot β_ij)`, `L_ii = −Σ_j L_ij` (Pinkall & Polthier 1993; Meyer,
+//!   Desbrun, Schröder, Barr 2003), and the lumped mass matrix (mixed Voronoi areas of Meyer et
+//!   al. 2003 by default, the same as libigl's `massmatrix` default; barycentric as an option).
+//! - [`SpdSolver`]: a sparse Cholesky factorisation (faer, AMD ordering, supernodal) of a
+//!   symmetric positive definite matrix, whose symbolic analysis is reused by
+//!   [`SpdSolver::refactor`] when only the values change (e.g. `M + t L` for a new `t`).
+//!
+//! Degenerate triangles: cotangents are computed intrinsically from edge lengths. With
+//! `mollify > 0` (default 1e-6) every edge length gets the same small δ ≥ 0, the least one for
+//! which each triangle satisfies the triangle inequality with slack `mollify · mean edge
+//! length` (the intrinsic mollification of Sharp & Crane 2020, "A Laplacian for nonmanifold
+//! triangle meshes"); δ is 0 on meshes without near-degenerate triangles, which then get the
+//! plain cotangent Laplacian. Whatever remains (e.g. `mollify = 0` on a zero-area triangle) is
+//! caught by clamping each cotangent to `±COT_CLAMP`: no NaN or infinity reaches the matrix.
+//!
+//! Determinism: assembly sums contributions in face order; products and solves split work in
+//! fixed-size pieces that do not depend on the thread count, so `Par::Seq` and `Par::Rayon`
+//! give the same bits.
+
+use std::sync::Arc;
+
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::sparse::linalg::cholesky::{
+    factorize_symbolic_cholesky, CholeskySymbolicParams, LltRef, SymbolicCholesky,
+    SymmetricOrdering,
+};
+use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
+use faer::{Conj, MatMut, Side};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use crestflow_flow::Par;
+use crestflow_geom::TriMesh;
+
+/// Largest absolute cotangent kept in the Laplacian (a triangle angle of about 1e-8 rad).
+pub const COT_CLAMP: f64 = 1e8;
+
+/// Columns solved together by one thread in [`SpdSolver::solve_many`]; fixed so that the
+/// result does not depend on the number of threads.
+const SOLVE_CHUNK: usize = 8;
+
+/// Errors of sparse matrix construction, products and factorisation.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SparseError {
+    #[error("entry ({row}, {col}) is outside a {nrows}×{ncols} matrix")]
+    IndexOutOfRange {
+        row: usize,
+        col: usize,
+        nrows: usize,
+        ncols: usize,
+    },
+    #[error("entry ({row}, {col}) is not finite ({value})")]
+    NonFinite { row: usize, col: usize, value: f64 },
+    #[error("malformed CSR arrays: {0}")]
+    Malformed(String),
+    #[error("the matrix is {nrows}×{ncols}, expected a square matrix")]
+    NotSquare { nrows: usize, ncols: usize },
+    #[error("dimension mismatch: {what} has length {got}, expected {expected}")]
+    DimensionMismatch {
+        what: &'static str,
+        got: usize,
+        expected: usize,
+    },
+    #[error(
+        "the matrix is not numerically positive definite (Cholesky pivot {pivot} of {n} is not \
+         positive)"
+    )]
+    NotPositiveDefinite { pivot: usize, n: usize },
+    #[error("sparse factorisation failed: {0}")]
+    Factorization(String),
+}
+
+/// A sparse `f64` matrix in compressed-sparse-row form: the columns of row `i` are
+/// `col_idx[row_ptr[i]..row_ptr[i + 1]]`, strictly increasing, with their `values`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CsrMatrix {
+    nrows: usize,
+    ncols: usize,
+    row_ptr: Vec<usize>,
+    col_idx: Vec<usize>,
+    values: Vec<f64>,
+}
+
+impl CsrMatrix {
+    /// Builds a matrix from `(row, col, value)` triplets; duplicates are summed in the order
+    /// given. Errors on an index outside the matrix or a non-finite value.
+    pub fn from_triplets(
+        nrows: usize,
+        ncols: usize,
+        triplets: &[(usize, usize, f64)],
+    ) -> Result<CsrMatrix, SparseError> {
+        for &(row, col, value) in triplets {
+            if row >= nrows || col >= ncols {
+                return Err(SparseError::IndexOutOfRange {
+                    row,
+                    col,
+                    nrows,
+                    ncols,
+                });
+            }
+            if !value.is_finite() {
+                return Err(SparseError::NonFinite { row, col, value });
+            }
+        }
+        // Stable sort keeps the given order among duplicates: the sums are reproducible.
+        let mut order: Vec<u32> = (0..triplets.len() as u32).collect();
+        order.sort_by_key(|&t| {
+            let (r, c, _) = triplets[t as usize];
+            (r, c)
+        });
+        let mut row_ptr = vec![0usize; nrows + 1];
+        let mut col_idx = Vec::with_capacity(triplets.len());
+        let mut values: Vec<f64> = Vec::with_capacity(triplets.len());
+        let mut last: Option<(usize, usize)> = None;
+        for &t in &order {
+            let (r, c, v) = triplets[t as usize];
+            if last == Some((r, c)) {
+                if let Some(x) = values.last_mut() {
+                    *x += v;
+                }
+            } else {
+                col_idx.push(c);
+                values.push(v);
+                row_ptr[r + 1] += 1;
+                last = Some((r, c));
+            }
+        }
+        for i in 0..nrows {
+            row_ptr[i + 1] += row_ptr[i];
+        }
+        Ok(CsrMatrix {
+            nrows,
+            ncols,
+            row_ptr,
+            col_idx,
+            values,
+        })
+    }
+
+    /// Builds a matrix from raw CSR arrays, checking every invariant.
+    pub fn from_raw(
+        nrows: usize,
+        ncols: usize,
+        row_ptr: Vec<usize>,
+        col_idx: Vec<usize>,
+        values: Vec<f64>,
+    ) -> Result<CsrMatrix, SparseError> {
+        let m = CsrMatrix {
+            nrows,
+            ncols,
+            row_ptr,
+            col_idx,
+            values,
+        };
+        m.check()?;
+        Ok(m)
+    }
+
+    /// The diagonal matrix with `diag` on its diagonal (zeros are stored too, so the pattern
+    /// is the full diagonal).
+    pub fn from_diagonal(diag: &[f64]) -> Result<CsrMatrix, SparseError> {
+        let n = diag.len();
+        if let Some((i, &v)) = diag.iter().enumerate().find(|(_, v)| !v.is_finite()) {
+            return Err(SparseError::NonFinite {
+                row: i,
+                col: i,
+                value: v,
+            });
+        }
+        Ok(CsrMatrix {
+            nrows: n,
+            ncols: n,
+            row_ptr: (0..=n).collect(),
+            col_idx: (0..n).collect(),
+            values: diag.to_vec(),
+        })
+    }
+
+    /// The `n × n` identity.
+    pub fn identity(n: usize) -> CsrMatrix {
+        CsrMatrix {
+            nrows: n,
+            ncols: n,
+            row_ptr: (0..=n).collect(),
+            col_idx: (0..n).collect(),
+            values: vec![1.0; n],
+        }
+    }
+
+    /// Checks the CSR invariants (used on values that come from outside, e.g. a cache).
+    pub fn check(&self) -> Result<(), SparseError> {
+        let bad = |m: String| Err(SparseError::Malformed(m));
+        if self.row_ptr.len() != self.nrows + 1 {
+            return bad(format!(
+                "row_ptr has {} entries for {} rows",
+                self.row_ptr.len(),
+                self.nrows
+            ));
+        }
+        if self.row_ptr[0] != 0 || self.row_ptr[self.nrows] != self.col_idx.len() {
+            return bad("row_ptr does not span col_idx".into());
+        }
+        if self.col_idx.len() != self.values.len() {
+            return bad(format!(
+                "{} column indices but {} values",
+                self.col_idx.len(),
+                self.values.len()
+            ));
+        }
+        for i in 0..self.nrows {
+            let (a, b) = (self.row_ptr[i], self.row_ptr[i + 1]);
+            if a > b || b > self.col_idx.len() {
+                return bad(format!("row_ptr decreases at row {i}"));
+            }
+            let cols = &self.col_idx[a..b];
+            for (k, &c) in cols.iter().enumerate() {
+                if c >= self.ncols {
+                    return Err(SparseError::IndexOutOfRange {
+                        row: i,
+                        col: c,
+                        nrows: self.nrows,
+                        ncols: self.ncols,
+                    });
+                }
+                if k > 0 && cols[k - 1] >= c {
+                    return bad(format!("columns of row {i} are not strictly increasing"));
+                }
+                let v = self.values[a + k];
+                if !v.is_finite() {
+                    return Err(SparseError::NonFinite {
+                        row: i,
+                        col: c,
+                        value: v,
+                    });
+                }
+            }
+        }
+        Ok(())
+    }
+
+    pub fn nrows(&self) -> usize {
+        self.nrows
+    }
+    pub fn ncols(&self) -> usize {
+        self.ncols
+    }
+    /// Number of stored entries.
+    pub fn nnz(&self) -> usize {
+        self.values.len()
+    }
+    pub fn row_ptr(&self) -> &[usize] {
+        &self.row_ptr
+    }
+    pub fn col_idx(&self) -> &[usize] {
+        &self.col_idx
+    }
+    pub fn values(&self) -> &[f64] {
+        &self.values
+    }
+    /// Mutable values (the pattern stays fixed).
+    pub fn values_mut(&mut self) -> &mut [f64] {
+        &mut self.values
+    }
+    /// The `(column, value)` pairs of row `i`.
+    pub fn row(&self, i: usize) -> impl Iterator<Item = (usize, f64)> + '_ {
+        let r = self.row_ptr[i]..self.row_ptr[i + 1];
+        self.col_idx[r.clone()]
+            .iter()
+            .copied()
+            .zip(self.values[r].iter().copied())
+    }
+    /// Entry `(i, j)` (0 when not stored or out of range).
+    pub fn get(&self, i: usize, j: usize) -> f64 {
+        if i >= self.nrows {
+            return 0.0;
+        }
+        let r = self.row_ptr[i]..self.row_ptr[i + 1];
+        match self.col_idx[r.clone()].binary_search(&j) {
+            Ok(k) => self.values[r.start + k],
+            Err(_) => 0.0,
+        }
+    }
+    /// The diagonal (zeros where not stored), length `min(nrows, ncols)`.
+    pub fn diagonal(&self) -> Vec<f64> {
+        (0..self.nrows.min(self.ncols))
+            .map(|i| self.get(i, i))
+            .collect()
+    }
+    /// The transpose (a counting sort: columns come out strictly increasing).
+    pub fn transpose(&self) -> CsrMatrix {
+        let mut row_ptr = vec![0usize; self.ncols + 1];
+        for &c in &self.col_idx {
+            row_ptr[c + 1] += 1;
+        }
+        for j in 0..self.ncols {
+            row_ptr[j + 1] += row_ptr[j];
+        }
+        let mut fill = row_ptr.clone();
+        let mut col_idx = vec![0usize; self.nnz()];
+        let mut values = vec![0.0; self.nnz()];
+        for i in 0..self.nrows {
+            for (j, v) in self.row(i) {
+                col_idx[fill[j]] = i;
+                values[fill[j]] = v;
+                fill[j] += 1;
+            }
+        }
+        CsrMatrix {
+            nrows: self.ncols,
+            ncols: self.nrows,
+            row_ptr,
+            col_idx,
+            values,
+        }
+    }
+    /// Largest |A_ij − A_ji| over stored entries (0 for a symmetric matrix).
+    pub fn asymmetry(&self) -> f64 {
+        let mut worst: f64 = 0.0;
+        for i in 0..self.nrows {
+            for (j, v) in self.row(i) {
+                worst = worst.max((v - self.get(j, i)).abs());
+            }
+        }
+        worst
+    }
+    /// Maximum absolute column sum (the matrix 1-norm).
+    pub fn norm1(&self) -> f64 {
+        let mut col = vec![0.0; self.ncols];
+        for (&c, &v) in self.col_idx.iter().zip(&self.values) {
+            col[c] += v.abs();
+        }
+        col.into_iter().fold(0.0, f64::max)
+    }
+
+    /// `alpha · self + beta · other` (patterns merged). Errors when the shapes differ.
+    pub fn add_scaled(
+        &self,
+        alpha: f64,
+        other: &CsrMatrix,
+        beta: f64,
+    ) -> Result<CsrMatrix, SparseError> {
+        if self.nrows != other.nrows || self.ncols != other.ncols {
+            return Err(SparseError::DimensionMismatch {
+                what: "the second matrix's rows",
+                got: other.nrows,
+                expected: self.nrows,
+            });
+        }
+        let mut row_ptr = Vec::with_capacity(self.nrows + 1);
+        row_ptr.push(0);
+        let mut col_idx = Vec::with_capacity(self.nnz() + other.nnz());
+        let mut values = Vec::with_capacity(self.nnz() + other.nnz());
+        for i in 0..self.nrows {
+            let (mut a, ae) = (self.row_ptr[i], self.row_ptr[i + 1]);
+            let (mut b, be) = (other.row_ptr[i], other.row_ptr[i + 1]);
+            while a < ae || b < be {
+                let ca = if a < ae { self.col_idx[a] } else { usize::MAX };
+                let cb = if b < be { other.col_idx[b] } else { usize::MAX };
+                if ca < cb {
+                    col_idx.push(ca);
+                    values.push(alpha * self.values[a]);
+                    a += 1;
+                } else if cb < ca {
+                    col_idx.push(cb);
+                    values.push(beta * other.values[b]);
+                    b += 1;
+                } else {
+                    col_idx.push(ca);
+                    values.push(alpha * self.values[a] + beta * other.values[b]);
+                    a += 1;
+                    b += 1;
+                }
+            }
+            row_ptr.push(col_idx.len());
+        }
+        let m = CsrMatrix {
+            nrows: self.nrows,
+            ncols: self.ncols,
+            row_ptr,
+            col_idx,
+            values,
+        };
+        if let Some(k) = m.values.iter().position(|v| !v.is_finite()) {
+            let row = m.row_ptr.partition_point(|&p| p <= k) - 1;
+            return Err(SparseError::NonFinite {
+                row,
+                col: m.col_idx[k],
+                value: m.values[k],
+            });
+        }
+        Ok(m)
+    }
+
+    /// `self + diag(d)` (the diagonal pattern is added where missing).
+    pub fn add_diagonal(&self, d: &[f64]) -> Result<CsrMatrix, SparseError> {
+        if d.len() != self.nrows || self.nrows != self.ncols {
+            return Err(SparseError::DimensionMismatch {
+                what: "the diagonal",
+                got: d.len(),
+                expected: self.nrows,
+            });
+        }
+        self.add_scaled(1.0, &CsrMatrix::from_diagonal(d)?, 1.0)
+    }
+
+    fn row_dot(&self, i: usize, x: &[f64]) -> f64 {
+        let mut s = 0.0;
+        for k in self.row_ptr[i]..self.row_ptr[i + 1] {
+            s += self.values[k] * x[self.col_idx[k]];
+        }
+        s
+    }
+
+    /// `y = A x`. Each entry of `y` is one row's dot product in column order, so the result
+    /// is the same with any `par`.
+    pub fn mul_vec(&self, x: &[f64], y: &mut [f64], par: Par) -> Result<(), SparseError> {
+        if x.len() != self.ncols {
+            return Err(SparseError::DimensionMismatch {
+                what: "x",
+                got: x.len(),
+                expected: self.ncols,
+            });
+        }
+        if y.len() != self.nrows {
+            return Err(SparseError::DimensionMismatch {
+                what: "y",
+                got: y.len(),
+                expected: self.nrows,
+            });
+        }
+        match par {
+            Par::Seq => y
+                .iter_mut()
+                .enumerate()
+                .for_each(|(i, yi)| *yi = self.row_dot(i, x)),
+            Par::Rayon => y
+                .par_iter_mut()
+                .with_min_len(1024)
+                .enumerate()
+                .for_each(|(i, yi)| *yi = self.row_dot(i, x)),
+        }
+        Ok(())
+    }
+
+    /// `A X` for a dense `ncols × m` block `x` stored column-major; returns the `nrows × m`
+    /// product, column-major.
+    pub fn mul_dense(&self, x: &[f64], m: usize, par: Par) -> Result<Vec<f64>, SparseError> {
+        if x.len() != self.ncols * m {
+            return Err(SparseError::DimensionMismatch {
+                what: "the dense block",
+                got: x.len(),
+                expected: self.ncols * m,
+            });
+        }
+        let mut y = vec![0.0; self.nrows * m];
+        if self.nrows == 0 || m == 0 {
+            return Ok(y);
+        }
+        let (n, nc) = (self.nrows, self.ncols);
+        let body = |(i, yi): (usize, &mut f64)| {
+            let (row, col) = (i % n, i / n);
+            *yi = self.row_dot(row, &x[col * nc..(col + 1) * nc]);
+        };
+        match par {
+            Par::Seq => y.iter_mut().enumerate().for_each(body),
+            Par::Rayon => y
+                .par_iter_mut()
+                .with_min_len(4096)
+                .enumerate()
+                .for_each(body),
+        }
+        Ok(y)
+    }
+
+    /// A faer view of the same arrays as a compressed-sparse-column matrix: it is the
+    /// transpose, i.e. the matrix itself when it is symmetric.
+    fn as_faer_transpose(&self) -> Result<SparseColMatRef<'_, usize, f64>, SparseError> {
+        let sym = SymbolicSparseColMatRef::new_checked(
+            self.ncols,
+            self.nrows,
+            &self.row_ptr,
+            None,
+            &self.col_idx,
+        );
+        Ok(SparseColMatRef::new(sym, &self.values))
+    }
+}
+
+/// Which lumped mass matrix to build.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum MassKind {
+    /// Mixed Voronoi areas (Meyer et al. 2003): Voronoi regions in non-obtuse triangles, half
+    /// the area to the obtuse corner and a quarter to the others otherwise (libigl's default).
+    #[default]
+    Voronoi,
+    /// A third of each incident triangle's area.
+    Barycentric,
+}
+
+/// How [`laplacian_and_mass`] discretises the operator.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct LaplacianOptions {
+    pub mass: MassKind,
+    /// Intrinsic mollification slack as a fraction of the mean edge length (module docs);
+    /// 0 disables it. Default 1e-6.
+    pub mollify: f64,
+}
+
+impl Default for LaplacianOptions {
+    fn default() -> Self {
+        LaplacianOptions {
+            mass: MassKind::Voronoi,
+            mollify: 1e-6,
+        }
+    }
+}
+
+/// Errors of the mesh operators.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum OperatorError {
+    #[error("the mesh has no triangles")]
+    NoTriangles,
+    #[error("face {face} references vertex {index} but the mesh has {n_vertices} vertices")]
+    IndexOutOfRange {
+        face: usize,
+        index: u32,
+        n_vertices: usize,
+    },
+    #[error("face {face} uses vertex {vertex} twice")]
+    RepeatedVertex { face: usize, vertex: u32 },
+    #[error("vertex {vertex} has a non-finite coordinate {position:?}")]
+    NonFinitePosition { vertex: usize, position: [f64; 3] },
+    #[error("mollify = {0} must be finite and in [0, 0.1]")]
+    BadMollify(f64),
+    #[error(transparent)]
+    Sparse(#[from] SparseError),
+}
+
+/// The per-face quantities both matrices need: corner cotangents and the three vertex
+/// masses, from (possibly mollified) edge lengths.
+struct FaceTerms {
+    /// cot of the angle at corner i (clamped).
+    cot: [f64; 3],
+    /// Mass given to corner i.
+    mass: [f64; 3],
+}
+
+fn check_mesh(mesh: &TriMesh, opts: &LaplacianOptions) -> Result<(), OperatorError> {
+    if !(opts.mollify.is_finite() && (0.0..=0.1).contains(&opts.mollify)) {
+        return Err(OperatorError::BadMollify(opts.mollify));
+    }
+    if mesh.triangles.is_empty() {
+        return Err(OperatorError::NoTriangles);
+    }
+    let n = mesh.n_vertices();
+    for (vertex, p) in mesh.positions.iter().enumerate() {
+        if !p.iter().all(|c| c.is_finite()) {
+            return Err(OperatorError::NonFinitePosition {
+                vertex,
+                position: *p,
+            });
+        }
+    }
+    for (face, t) in mesh.triangles.iter().enumerate() {
+        if let Some(&index) = t.iter().find(|&&i| i as usize >= n) {
+            return Err(OperatorError::IndexOutOfRange {
+                face,
+                index,
+                n_vertices: n,
+            });
+        }
+        if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
+            let vertex = if t[0] == t[1] || t[0] == t[2] { t[0] } else { t[1] };
+            return Err(OperatorError::RepeatedVertex { face, vertex });
+        }
+    }
+    Ok(())
+}
+
+/// Edge lengths of face f: `l[i]` is the length of the side opposite corner i.
+fn face_lengths(mesh: &TriMesh, f: usize) -> [f64; 3] {
+    let [a, b, c] = mesh.face_points(f);
+    let d = |p: [f64; 3], q: [f64; 3]| {
+        ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt()
+    };
+    [d(b, c), d(c, a), d(a, b)]
+}
+
+/// The mollification δ added to every edge length (module docs).
+fn mollify_delta(mesh: &TriMesh, mollify: f64) -> f64 {
+    if mollify == 0.0 {
+        return 0.0;
+    }
+    let mut sum = 0.0;
+    let mut count = 0usize;
+    for f in 0..mesh.n_faces() {
+        let l = face_lengths(mesh, f);
+        sum += l[0] + l[1] + l[2];
+        count += 3;
+    }
+    let eps = mollify * sum / count.max(1) as f64;
+    // Adding δ to all three lengths raises every slack by δ.
+    let mut delta: f64 = 0.0;
+    for f in 0..mesh.n_faces() {
+        let l = face_lengths(mesh, f);
+        for i in 0..3 {
+            // Slack of the triangle inequality for the side opposite corner i.
+            let slack = l[(i + 1) % 3] + l[(i + 2) % 3] - l[i];
+            delta = delta.max(eps - slack);
+        }
+    }
+    delta
+}
+
+fn face_terms(l: [f64; 3], mass: MassKind) -> FaceTerms {
+    // Heron's formula in its stable form (Kahan): sort a ≥ b ≥ c.
+    let mut s = l;
+    s.sort_by(|x, y| y.total_cmp(x));
+    let [a, b, c] = s;
+    let prod = (a + (b + c)) * (c - (a - b)) * (c + (a - b)) * (a + (b - c));
+    let area = 0.25 * prod.max(0.0).sqrt();
+    let sq = [l[0] * l[0], l[1] * l[1], l[2] * l[2]];
+    let mut cot = [0.0; 3];
+    for i in 0..3 {
+        // cot θ_i = (l_j² + l_k² − l_i²) / (4 A).
+        let num = sq[(i + 1) % 3] + sq[(i + 2) % 3] - sq[i];
+        let c = if num == 0.0 { 0.0 } else { num / (4.0 * area) };
+        cot[i] = if c.is_nan() { 0.0 } else { c.clamp(-COT_CLAMP, COT_CLAMP) };
+    }
+    let masses = match mass {
+        MassKind::Barycentric => [area / 3.0; 3],
+        MassKind::Voronoi => {
+            // Obtuse corner: the cosine's numerator is negative.
+            let obtuse = (0..3).find(|&i| sq[(i + 1) % 3] + sq[(i + 2) % 3] - sq[i] < 0.0);
+            match obtuse {
+                Some(o) => {
+                    let mut m = [0.25 * area; 3];
+                    m[o] = 0.5 * area;
+                    m
+                }
+                None => {
+                    // Voronoi area of corner i: (|e_ij|² cot θ_k + |e_ik|² cot θ_j) / 8,
+                    // where e_ij is opposite corner k.
+                    let mut m = [0.0; 3];
+                    for (i, mi) in m.iter_mut().enumerate() {
+                        let (j, k) = ((i + 1) % 3, (i + 2) % 3);
+                        *mi = (sq[k] * cot[k] + sq[j] * cot[j]) / 8.0;
+                    }
+                    m
+                }
+            }
+        }
+    };
+    FaceTerms { cot, mass: masses }
+}
+
+fn all_face_terms(
+    mesh: &TriMesh,
+    opts: &LaplacianOptions,
+    par: Par,
+) -> Result<Vec<FaceTerms>, OperatorError> {
+    check_mesh(mesh, opts)?;
+    let delta = mollify_delta(mesh, opts.mollify);
+    Ok(par.map_collect(mesh.n_faces(), |f| {
+        let l = face_lengths(mesh, f);
+        face_terms([l[0] + delta, l[1] + delta, l[2] + delta], opts.mass)
+    }))
+}
+
+fn assemble_laplacian(
+    mesh: &TriMesh,
+    terms: &[FaceTerms],
+) -> Result<CsrMatrix, OperatorError> {
+    let n = mesh.n_vertices();
+    let mut trip = Vec::with_capacity(terms.len() * 12);
+    for (t, ft) in mesh.triangles.iter().zip(terms) {
+        for i in 0..3 {
+            // The side opposite corner i joins corners j and k.
+            let (j, k) = (t[(i + 1) % 3] as usize, t[(i + 2) % 3] as usize);
+            let w = 0.5 * ft.cot[i];
+            trip.push((j, k, -w));
+            trip.push((k, j, -w));
+            trip.push((j, j, w));
+            trip.push((k, k, w));
+        }
+    }
+    Ok(CsrMatrix::from_triplets(n, n, &trip)?)
+}
+
+fn assemble_mass(mesh: &TriMesh, terms: &[FaceTerms]) -> Vec<f64> {
+    let mut m = vec![0.0; mesh.n_vertices()];
+    for (t, ft) in mesh.triangles.iter().zip(terms) {
+        for i in 0..3 {
+            m[t[i] as usize] += ft.mass[i];
+        }
+    }
+    m
+}
+
+/// The cotangent stiffness matrix `L` (positive semi-definite, rows sum to 0) and the lumped
+/// mass diagonal `M` of `mesh`. Vertices no face references get an empty row and mass 0.
+pub fn laplacian_and_mass(
+    mesh: &TriMesh,
+    opts: &LaplacianOptions,
+    par: Par,
+) -> Result<(CsrMatrix, Vec<f64>), OperatorError> {
+    let terms = all_face_terms(mesh, opts, par)?;
+    Ok((assemble_laplacian(mesh, &terms)?, assemble_mass(mesh, &terms)))
+}
+
+/// The cotangent stiffness matrix `L` with default options (module docs).
+pub fn cotan_laplacian(mesh: &TriMesh) -> Result<CsrMatrix, OperatorError> {
+    let terms = all_face_terms(mesh, &LaplacianOptions::default(), Par::Seq)?;
+    assemble_laplacian(mesh, &terms)
+}
+
+/// The lumped mass diagonal with default options (mixed Voronoi areas).
+pub fn lumped_mass(mesh: &TriMesh) -> Result<Vec<f64>, OperatorError> {
+    let terms = all_face_terms(mesh, &LaplacianOptions::default(), Par::Seq)?;
+    Ok(assemble_mass(mesh, &terms))
+}
+
+/// A sparse Cholesky factorisation `A = P^T L L^T P` of a symmetric positive definite
+/// matrix (faer; AMD fill-reducing ordering; only the lower triangle of `A` is read).
+///
+/// The factorisation itself runs on the calling thread (its result must not depend on the
+/// thread count); [`SpdSolver::solve_many`] solves independent right-hand sides in parallel.
+/// The value is `Send + Sync`: share it between threads by reference.
+#[derive(Debug, Clone)]
+pub struct SpdSolver {
+    n: usize,
+    symbolic: Arc<SymbolicCholesky<usize>>,
+    factor: Vec<f64>,
+    row_ptr: Vec<usize>,
+    col_idx: Vec<usize>,
+}
+
+impl SpdSolver {
+    /// Analyses and factorises `a`, which must be square, symmetric and positive definite.
+    pub fn new(a: &CsrMatrix) -> Result<SpdSolver, SparseError> {
+        a.check()?;
+        if a.nrows != a.ncols {
+            return Err(SparseError::NotSquare {
+                nrows: a.nrows,
+                ncols: a.ncols,
+            });
+        }
+        let view = a.as_faer_transpose()?;
+        let symbolic = factorize_symbolic_cholesky(
+            view.symbolic(),
+            Side::Lower,
+            SymmetricOrdering::Amd,
+            CholeskySymbolicParams::default(),
+        )
+        .map_err(|e| SparseError::Factorization(format!("{e:?}")))?;
+        let mut s = SpdSolver {
+            n: a.nrows,
+            symbolic: Arc::new(symbolic),
+            factor: Vec::new(),
+            row_ptr: a.row_ptr.clone(),
+            col_idx: a.col_idx.clone(),
+        };
+        s.numeric(a)?;
+        Ok(s)
+    }
+
+    /// Factorises new values. When `a` has the pattern of the matrix this solver was built
+    /// from, the symbolic analysis (ordering, elimination tree) is reused; otherwise it is
+    /// redone.
+    pub fn refactor(&mut self, a: &CsrMatrix) -> Result<(), SparseError> {
+        if a.row_ptr == self.row_ptr && a.col_idx == self.col_idx && a.nrows == self.n {
+            a.check()?;
+            self.numeric(a)
+        } else {
+            *self = SpdSolver::new(a)?;
+            Ok(())
+        }
+    }
+
+    fn numeric(&mut self, a: &CsrMatrix) -> Result<(), SparseError> {
+        let view = a.as_faer_transpose()?;
+        let fpar = faer::Par::Seq;
+        let mut values = vec![0.0; self.symbolic.len_val()];
+        let mut mem = MemBuffer::try_new(
+            self.symbolic
+                .factorize_numeric_llt_scratch::<f64>(fpar, Default::default()),
+        )
+        .map_err(|e| SparseError::Factorization(format!("{e:?}")))?;
+        self.symbolic
+            .factorize_numeric_llt::<f64>(
+                &mut values,
+                view,
+                Side::Lower,
+                Default::default(),
+                fpar,
+                MemStack::new(&mut mem),
+                Default::default(),
+            )
+            .map_err(|e| match e {
+                faer::linalg::cholesky::llt::factor::LltError::NonPositivePivot { index } => {
+                    SparseError::NotPositiveDefinite {
+                        pivot: index,
+                        n: self.n,
+                    }
+                }
+            })?;
+        self.factor = values;
+        Ok(())
+    }
+
+    /// Order of the matrix.
+    pub fn n(&self) -> usize {
+        self.n
+    }
+
+    /// Number of stored values of the Cholesky factor (a measure of fill-in).
+    pub fn factor_nnz(&self) -> usize {
+        self.factor.len()
+    }
+
+    /// Solves `A x = b` for a column-major `n × m` block on the calling thread.
+    fn solve_block(&self, b: &mut [f64], m: usize) {
+        let fpar = faer::Par::Seq;
+        let llt = LltRef::<usize, f64>::new(&self.symbolic, &self.factor);
+        let mut mem = MemBuffer::new(self.symbolic.solve_in_place_scratch::<f64>(m, fpar));
+        let rhs = MatMut::from_column_major_slice_mut(b, self.n, m);
+        llt.solve_in_place_with_conj(Conj::No, rhs, fpar, MemStack::new(&mut mem));
+    }
+
+    /// Overwrites `b` with `A⁻¹ b`.
+    pub fn solve_in_place(&self, b: &mut [f64]) -> Result<(), SparseError> {
+        if b.len() != self.n {
+            return Err(SparseError::DimensionMismatch {
+                what: "the right-hand side",
+                got: b.len(),
+                expected: self.n,
+            });
+        }
+        if self.n > 0 {
+            self.solve_block(b, 1);
+        }
+        Ok(())
+    }
+
+    /// Overwrites the column-major `n × m` block `b` with `A⁻¹ b`. Columns are solved in
+    /// fixed groups of eight, in parallel under `Par::Rayon`; the result is the same bits
+    /// for any thread count.
+    pub fn solve_many(&self, b: &mut [f64], m: usize, par: Par) -> Result<(), SparseError> {
+        if b.len() != self.n * m {
+            return Err(SparseError::DimensionMismatch {
+                what: "the right-hand side block",
+                got: b.len(),
+                expected: self.n * m,
+            });
+        }
+        if self.n == 0 || m == 0 {
+            return Ok(());
+        }
+        let chunk = self.n * SOLVE_CHUNK;
+        match par {
+            Par::Seq => b
+                .chunks_mut(chunk)
+                .for_each(|c| self.solve_block(c, c.len() / self.n)),
+            Par::Rayon => b
+                .par_chunks_mut(chunk)
+                .for_each(|c| self.solve_block(c, c.len() / self.n)),
+        }
+        Ok(())
+    }
+}
