@@ -66,7 +66,9 @@ fn finished_for<'a>(events: &'a [Json], input_suffix: &str, node: &str) -> Vec<&
         .filter(|e| {
             e["event"] == "node_finished"
                 && e["node"] == node
-                && e["input"].as_str().is_some_and(|i| i.ends_with(input_suffix))
+                && e["input"]
+                    .as_str()
+                    .is_some_and(|i| i.ends_with(input_suffix))
         })
         .map(|e| e["status"].as_str().unwrap())
         .collect()
@@ -88,7 +90,14 @@ fn one_bad_file_fails_alone() {
 
     let out = run(
         &[
-            "run", "graph.ron", "--each", "in/*.off", "--jobs", "2", "--log", "json",
+            "run",
+            "graph.ron",
+            "--each",
+            "in/*.off",
+            "--jobs",
+            "2",
+            "--log",
+            "json",
         ],
         d,
     );
@@ -136,7 +145,11 @@ fn one_bad_file_fails_alone() {
     let events = json_lines(&out);
     for name in ["cgal_fandisk.off", "cgal_elephant.off"] {
         for node in ["load", "save", "ico"] {
-            assert_eq!(finished_for(&events, name, node), ["cached"], "{name} {node}");
+            assert_eq!(
+                finished_for(&events, name, node),
+                ["cached"],
+                "{name} {node}"
+            );
         }
     }
     assert_eq!(finished_for(&events, "broken.off", "load"), ["failed"]);
@@ -151,7 +164,14 @@ fn shared_cache_runs_file_independent_nodes_once() {
     let pattern = format!("{}/cat-0[1-3].obj", poses.display());
     let out = run(
         &[
-            "run", "graph.ron", "--each", &pattern, "--jobs", "1", "--log", "json",
+            "run",
+            "graph.ron",
+            "--each",
+            &pattern,
+            "--jobs",
+            "1",
+            "--log",
+            "json",
         ],
         d,
     );
@@ -171,6 +191,28 @@ fn shared_cache_runs_file_independent_nodes_once() {
     for k in 1..=3 {
         assert!(d.join(format!("out/cat-0{k}/report.json")).is_file());
     }
+
+    // Three files at once, without the cache: the same outputs, byte for byte.
+    let out = run(
+        &[
+            "run",
+            "graph.ron",
+            "--each",
+            &pattern,
+            "--jobs",
+            "3",
+            "--no-cache",
+            "--set",
+            "out=out3",
+        ],
+        d,
+    );
+    assert_eq!(out.status.code(), Some(0));
+    for k in 1..=3 {
+        let a = std::fs::read(d.join(format!("out/cat-0{k}/report.json"))).unwrap();
+        let b = std::fs::read(d.join(format!("out3/cat-0{k}/report.json"))).unwrap();
+        assert_eq!(a, b, "cat-0{k}");
+    }
 }
 
 #[test]
@@ -189,5 +231,8 @@ fn no_match_and_unbindable_graph_are_usage_errors() {
     );
     assert_eq!(out.status.code(), Some(2));
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("no param `scan`") && err.contains("mesh, out"), "{err}");
+    assert!(
+        err.contains("no param `scan`") && err.contains("mesh, out"),
+        "{err}"
+    );
 }

@@ -9,8 +9,8 @@ use std::path::Path;
 
 use common::{tempdir, toy_registry, write};
 use crestflow::experiment::{
-    expand, run_experiment, set_param_field, Cell, Experiment, ExperimentError,
-    ExperimentOptions, Table,
+    expand, run_experiment, set_param_field, Cell, Experiment, ExperimentError, ExperimentOptions,
+    Table,
 };
 use crestflow_flow::graph::Graph;
 use crestflow_flow::{Event, Status};
@@ -80,7 +80,10 @@ fn count(log: &Log, s: Status) -> BTreeMap<String, usize> {
 fn num(t: &Table, row: usize, col: &str) -> f64 {
     match t.get(row, col) {
         Some(Cell::Num(x)) => *x,
-        other => panic!("row {row} column {col}: {other:?} (columns {:?})", t.columns),
+        other => panic!(
+            "row {row} column {col}: {other:?} (columns {:?})",
+            t.columns
+        ),
     }
 }
 
@@ -117,12 +120,18 @@ fn variants_share_the_prefix_resume_from_cache_and_tabulate() {
         ("broken", 2.5, None),
     ];
     for (i, (variant, scale, x)) in expect.iter().enumerate() {
-        assert_eq!(table.get(i, "variant"), Some(&Cell::Text(variant.to_string())));
+        assert_eq!(
+            table.get(i, "variant"),
+            Some(&Cell::Text(variant.to_string()))
+        );
         assert_eq!(num(&table, i, "tail.scale"), *scale);
         match x {
             Some(x) => {
                 let got = num(&table, i, "rep.x");
-                assert!((got - x).abs() <= 1e-12 * x.abs().max(1.0), "row {i}: {got} vs {x}");
+                assert!(
+                    (got - x).abs() <= 1e-12 * x.abs().max(1.0),
+                    "row {i}: {got} vs {x}"
+                );
                 assert_eq!(table.get(i, "status"), Some(&Cell::Text("ok".into())));
             }
             None => {
@@ -140,7 +149,11 @@ fn variants_share_the_prefix_resume_from_cache_and_tabulate() {
     let csv = std::fs::read_to_string(dir.path().join("results/results.csv")).unwrap();
     let lines: Vec<&str> = csv.lines().collect();
     assert_eq!(lines.len(), 7);
-    assert!(lines[0].starts_with("run,variant,tail.scale,"), "{}", lines[0]);
+    assert!(
+        lines[0].starts_with("run,variant,tail.scale,"),
+        "{}",
+        lines[0]
+    );
     assert!(lines[3].contains(&format!(",{s},")), "{}", lines[3]);
     let md = std::fs::read_to_string(dir.path().join("results/results.md")).unwrap();
     assert_eq!(md.lines().count(), 8);
@@ -258,8 +271,12 @@ fn param_fields_are_set_in_place_or_added() {
     assert_eq!(set_param_field("()", "x", "1.0").unwrap(), "(x: 1.0)");
     assert_eq!(set_param_field("", "x", "1.0").unwrap(), "(x: 1.0)");
     assert_eq!(
-        set_param_field("(shape: Torus(major: 1.0, minor: 0.3), n: 1)", "shape", "Sphere(radius: 2.0)")
-            .unwrap(),
+        set_param_field(
+            "(shape: Torus(major: 1.0, minor: 0.3), n: 1)",
+            "shape",
+            "Sphere(radius: 2.0)"
+        )
+        .unwrap(),
         "(shape: Sphere(radius: 2.0), n: 1)"
     );
     assert!(set_param_field("[1, 2]", "x", "1").is_err());

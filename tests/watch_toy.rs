@@ -75,9 +75,10 @@ impl Watcher {
 
     /// Waits for run `run` to finish; returns node -> (status, reason) of that run.
     fn run_finished(&mut self, run: usize) -> BTreeMap<String, (Status, String)> {
-        self.until(&format!("run {run} to finish"), |e| {
-            matches!(e, WatchEvent::RunFinished { run: r, .. } if *r == run)
-        });
+        self.until(
+            &format!("run {run} to finish"),
+            |e| matches!(e, WatchEvent::RunFinished { run: r, .. } if *r == run),
+        );
         nodes_of(&self.seen, run)
     }
 
@@ -208,8 +209,14 @@ fn invalid_save_keeps_watching_and_next_valid_save_runs() {
     w.run_finished(1);
 
     // A syntax error, then an unknown kind: each reported with its line, nothing runs.
-    write(dir.path(), "graph.ron", "Graph(\n    nodes: {\n        \"a\": (kind: ,\n");
-    let ev = w.until("the invalid graph", |e| matches!(e, WatchEvent::Invalid { .. }));
+    write(
+        dir.path(),
+        "graph.ron",
+        "Graph(\n    nodes: {\n        \"a\": (kind: ,\n",
+    );
+    let ev = w.until("the invalid graph", |e| {
+        matches!(e, WatchEvent::Invalid { .. })
+    });
     let WatchEvent::Invalid { error } = ev.last().unwrap() else {
         unreachable!()
     };
@@ -223,9 +230,15 @@ fn invalid_save_keeps_watching_and_next_valid_save_runs() {
         unreachable!()
     };
     let text = error.to_string();
-    assert!(text.contains("graph.ron:7:") && text.contains("toy.reprot"), "{text}");
+    assert!(
+        text.contains("graph.ron:7:") && text.contains("toy.reprot"),
+        "{text}"
+    );
     assert!(text.contains("toy.report"), "did-you-mean missing: {text}");
-    assert!(started(&w.seen, 2).is_none(), "an invalid graph must not run");
+    assert!(
+        started(&w.seen, 2).is_none(),
+        "an invalid graph must not run"
+    );
 
     write(dir.path(), "graph.ron", &sum_graph("1.5"));
     let nodes = w.run_finished(2);
@@ -294,6 +307,7 @@ fn new_file_in_input_folder_runs_its_pipeline() {
 fn rename_over_saves_rerun() {
     let dir = tempdir();
     write(dir.path(), "seed.off", "seed");
+    std::fs::create_dir(dir.path().join("out")).unwrap();
     let g = write(dir.path(), "graph.ron", &file_graph());
     let mut w = Watcher::start(&g, vec![]);
     w.run_finished(1);
@@ -346,7 +360,11 @@ fn change_during_a_run_cancels_and_restarts() {
         matches!(e, WatchEvent::RunFinished { run: 1, .. })
     });
     // Cancelled long before its 4 s were up.
-    assert!(t_edit.elapsed() < Duration::from_secs(3), "{:?}", t_edit.elapsed());
+    assert!(
+        t_edit.elapsed() < Duration::from_secs(3),
+        "{:?}",
+        t_edit.elapsed()
+    );
     let cancelled = w.seen.iter().any(|e| {
         matches!(
             e,
@@ -366,6 +384,49 @@ fn change_during_a_run_cancels_and_restarts() {
     // What had finished is in the cache; the changed branch runs to the end.
     assert_eq!(nodes["quick"].0, Status::Cached);
     assert_eq!(nodes["slow"].0, Status::Ran);
+    assert_eq!(report_x(&w.seen, 2, "rep"), Some(3.0));
+    w.stop();
+}
+
+#[test]
+fn unaffected_running_nodes_finish_before_a_restart() {
+    let dir = tempdir();
+    let graph = |v: &str| {
+        format!(
+            r#"Graph(
+    params: {{}},
+    nodes: {{
+        "a": (kind: "toy.const", params: (value: 1.0)),
+        "b": (kind: "toy.const", params: (value: {v})),
+        "slow_a": (kind: "toy.slow", params: (steps: 60, step_ms: 10), inputs: {{ "x": "a.value" }}),
+        "slow_b": (kind: "toy.slow", params: (steps: 400, step_ms: 10), inputs: {{ "x": "b.value" }}),
+        "rep": (kind: "toy.report", inputs: {{ "x": "slow_b.value" }}),
+    }},
+)"#
+        )
+    };
+    let g = write(dir.path(), "graph.ron", &graph("2.0"));
+    let mut w = Watcher::start(&g, vec![]);
+    // Both branches running (two worker threads).
+    w.until("slow_b to start", |e| {
+        matches!(e, WatchEvent::Engine { run: 1, event: Event::NodeStarted { node, .. } } if node == "slow_b")
+    });
+    assert!(
+        w.seen.iter().any(|e| matches!(e,
+        WatchEvent::Engine { run: 1, event: Event::NodeStarted { node, .. } } if node == "slow_a"))
+    );
+    assert!(!w.seen.iter().any(|e| matches!(e,
+        WatchEvent::Engine { run: 1, event: Event::NodeFinished { node, .. } } if node == "slow_a")));
+    write(dir.path(), "graph.ron", &graph("3.0"));
+    w.run_finished(1);
+    let first = nodes_of(&w.seen, 1);
+    // slow_a does not depend on b: it finished (0.6 s) instead of being cancelled.
+    assert_eq!(first["slow_a"].0, Status::Ran, "{first:?}");
+    // slow_b (4 s) was stale and cancelled once slow_a was done.
+    assert_eq!(first["slow_b"].0, Status::Failed, "{first:?}");
+    let second = w.run_finished(2);
+    assert_eq!(second["slow_a"].0, Status::Cached);
+    assert_eq!(second["slow_b"].0, Status::Ran);
     assert_eq!(report_x(&w.seen, 2, "rep"), Some(3.0));
     w.stop();
 }

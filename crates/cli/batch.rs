@@ -76,11 +76,7 @@ pub fn overrides_for_file(
             .map(|d| d.join(file))
             .unwrap_or_else(|_| file.to_path_buf())
     };
-    let mut out: Vec<(String, String)> = sets
-        .iter()
-        .filter(|(n, _)| n != bind)
-        .cloned()
-        .collect();
+    let mut out: Vec<(String, String)> = sets.iter().filter(|(n, _)| n != bind).cloned().collect();
     out.push((bind.to_string(), spanned::quote(&abs.to_string_lossy())));
     if bind != "out" {
         let current = sets
@@ -102,6 +98,16 @@ pub fn overrides_for_file(
         }
     }
     Ok(out)
+}
+
+/// Creates the folder a file's `out` override names (nodes may expect it to exist).
+pub fn create_out_dir(graph: &Graph, overrides: &[(String, String)]) -> Result<(), String> {
+    if let Some((_, v)) = overrides.iter().rev().find(|(n, _)| n == "out") {
+        let dir = crestflow_flow::resolve_path(&graph.base_dir, Path::new(&ron_text_as_string(v)));
+        std::fs::create_dir_all(&dir)
+            .map_err(|e| format!("cannot create the output folder {}: {e}", dir.display()))?;
+    }
+    Ok(())
 }
 
 /// Parses `--set` arguments relative to the current folder.
@@ -209,12 +215,20 @@ pub fn run_each(
         for _ in 0..jobs {
             s.spawn(|| loop {
                 let i = next.fetch_add(1, Ordering::SeqCst);
-                if i >= files.len() {
+                // After Ctrl-C, files not yet started are left out (reported as not run).
+                if i >= files.len() || opts.cancel.is_cancelled() {
                     break;
                 }
-                let o = run_one(registry, &graph, &sets, &base_id, &files[i], opts, threads, &|e| {
-                    on_event(i, e)
-                });
+                let o = run_one(
+                    registry,
+                    &graph,
+                    &sets,
+                    &base_id,
+                    &files[i],
+                    opts,
+                    threads,
+                    &|e| on_event(i, e),
+                );
                 if let Ok(mut slot) = results[i].lock() {
                     *slot = Some(o);
                 }
@@ -225,16 +239,19 @@ pub fn run_each(
         .into_iter()
         .zip(files)
         .map(|(m, f)| {
-            m.into_inner().ok().flatten().unwrap_or_else(|| FileOutcome {
-                file: f.clone(),
-                ok: false,
-                ran: 0,
-                cached: 0,
-                failed: 0,
-                skipped: 0,
-                ms: 0.0,
-                error: Some("the worker running this file stopped".into()),
-            })
+            m.into_inner()
+                .ok()
+                .flatten()
+                .unwrap_or_else(|| FileOutcome {
+                    file: f.clone(),
+                    ok: false,
+                    ran: 0,
+                    cached: 0,
+                    failed: 0,
+                    skipped: 0,
+                    ms: 0.0,
+                    error: Some("not run (cancelled)".into()),
+                })
         })
         .collect())
 }
@@ -269,6 +286,9 @@ fn run_one(
         Ok(p) => p,
         Err(e) => return fail(format!("the graph does not load for this file: {e}")),
     };
+    if let Err(e) = create_out_dir(graph, &ov) {
+        return fail(e);
+    }
     let (tx, rx) = crossbeam_channel::unbounded::<Event>();
     let run_opts = RunOptions {
         threads,

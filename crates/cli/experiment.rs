@@ -381,11 +381,19 @@ pub fn set_param_field(params: &str, field: &str, value: &str) -> Result<String,
                 return Ok(format!("{}{value}{}", &text[..s.start], &text[s.end..]));
             }
             let end = fields.last().map(|f| f.value.span.end).unwrap_or(0);
-            Ok(format!("{}, {field}: {value}{}", &text[..end], &text[end..]))
+            Ok(format!(
+                "{}, {field}: {value}{}",
+                &text[..end],
+                &text[end..]
+            ))
         }
         SKind::Tuple { items, .. } if items.is_empty() => {
             let close = text.rfind(')').ok_or("params are not `( … )`")?;
-            Ok(format!("{}{field}: {value}{}", &text[..close], &text[close..]))
+            Ok(format!(
+                "{}{field}: {value}{}",
+                &text[..close],
+                &text[close..]
+            ))
         }
         _ => Err(format!("params `{text}` are not `(field: value, …)`")),
     }
@@ -447,9 +455,13 @@ pub fn expand(exp: &Experiment, base: &Graph) -> Result<Vec<RunSpec>, String> {
                     }
                     settings.push(("variant".into(), var.name.clone()));
                     for (node, kind) in &var.kinds {
-                        let n = g.nodes.iter_mut().find(|n| n.name == *node).ok_or_else(|| {
-                            format!("variant `{}`: the graph has no node `{node}`", var.name)
-                        })?;
+                        let n = g
+                            .nodes
+                            .iter_mut()
+                            .find(|n| n.name == *node)
+                            .ok_or_else(|| {
+                                format!("variant `{}`: the graph has no node `{node}`", var.name)
+                            })?;
                         if n.kind != *kind {
                             n.kind = kind.clone();
                             n.params = "()".into();
@@ -661,8 +673,9 @@ pub fn run_experiment(
             .join("cache")
     });
     let timings_path = out.join("timings.json");
-    // Compute times of earlier runs, so resumed (cached) rows still show what nodes cost.
-    let mut timings: BTreeMap<String, BTreeMap<String, f64>> = std::fs::read(&timings_path)
+    // Compute times by cache key, so rows whose nodes came from the cache (a resumed
+    // experiment, or a prefix another run computed) still show what those nodes cost.
+    let mut timings: BTreeMap<String, f64> = std::fs::read(&timings_path)
         .ok()
         .and_then(|b| serde_json::from_slice(&b).ok())
         .unwrap_or_default();
@@ -680,42 +693,22 @@ pub fn run_experiment(
         };
         let mut metrics = BTreeMap::new();
         let mut node_ms = BTreeMap::new();
-        let known = timings.entry(spec.id.clone()).or_default();
         let res = std::thread::scope(|s| {
             let h = s.spawn(|| crestflow_flow::run(plan, &ropts));
             for e in rx.iter() {
                 on_event(&spec.id, &e);
-                match &e {
-                    Event::Report { node, values, .. } => {
-                        if let Some(o) = values.as_object() {
-                            for (k, v) in o {
-                                let c = match v {
-                                    serde_json::Value::Number(n) => {
-                                        Cell::Num(n.as_f64().unwrap_or(f64::NAN))
-                                    }
-                                    serde_json::Value::Null => Cell::Num(f64::NAN),
-                                    serde_json::Value::String(s) => Cell::Text(s.clone()),
-                                    other => Cell::Text(other.to_string()),
-                                };
-                                metrics.insert(format!("{node}.{k}"), c);
+                if let Event::Report { node, values, .. } = &e {
+                    for (k, v) in values.as_object().into_iter().flatten() {
+                        let c = match v {
+                            serde_json::Value::Number(n) => {
+                                Cell::Num(n.as_f64().unwrap_or(f64::NAN))
                             }
-                        }
+                            serde_json::Value::Null => Cell::Num(f64::NAN),
+                            serde_json::Value::String(s) => Cell::Text(s.clone()),
+                            other => Cell::Text(other.to_string()),
+                        };
+                        metrics.insert(format!("{node}.{k}"), c);
                     }
-                    Event::NodeFinished {
-                        node, status, ms, ..
-                    } => match status {
-                        Status::Ran => {
-                            known.insert(node.clone(), *ms);
-                            node_ms.insert(node.clone(), *ms);
-                        }
-                        Status::Cached => {
-                            if let Some(t) = known.get(node) {
-                                node_ms.insert(node.clone(), *t);
-                            }
-                        }
-                        _ => {}
-                    },
-                    _ => {}
                 }
                 if matches!(e, Event::RunFinished { .. }) {
                     break;
@@ -725,6 +718,20 @@ pub fn run_experiment(
         });
         let (status, ran, cached) = match res {
             Ok(Ok(s)) => {
+                for o in &s.nodes {
+                    match o.status {
+                        Status::Ran => {
+                            timings.insert(o.key.clone(), o.ms);
+                            node_ms.insert(o.name.clone(), o.ms);
+                        }
+                        Status::Cached => {
+                            if let Some(t) = timings.get(&o.key) {
+                                node_ms.insert(o.name.clone(), *t);
+                            }
+                        }
+                        _ => {}
+                    }
+                }
                 let status = if s.cancelled {
                     "cancelled".to_string()
                 } else if let Some(f) = s.failures().next() {
@@ -806,8 +813,7 @@ impl Table {
         let differing: Vec<String> = setting_names
             .into_iter()
             .filter(|k| {
-                let vals: BTreeSet<Option<String>> =
-                    results.iter().map(|r| value(r, k)).collect();
+                let vals: BTreeSet<Option<String>> = results.iter().map(|r| value(r, k)).collect();
                 vals.len() > 1
             })
             .collect();
@@ -874,10 +880,7 @@ impl Table {
         let mut s = format!("| {} |\n", self.columns.join(" | "));
         s.push_str(&format!(
             "|{}\n",
-            self.columns
-                .iter()
-                .map(|_| "---|")
-                .collect::<String>()
+            self.columns.iter().map(|_| "---|").collect::<String>()
         ));
         for r in &self.rows {
             s.push_str(&format!(

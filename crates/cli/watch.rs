@@ -23,16 +23,18 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
-use crossbeam_channel::{select, unbounded, Receiver};
 use crestflow_flow::graph::Graph;
 use crestflow_flow::{
     load, resolve_path, CancelToken, Event, LoadError, Plan, Registry, RunOptions, Status,
 };
+use crossbeam_channel::{select, unbounded, Receiver};
 use notify_debouncer_full::notify::{EventKind, RecursiveMode};
 use notify_debouncer_full::{new_debouncer, DebounceEventResult};
 
 use crate::app::{render_load_error, LogFormat, EXIT_INVALID};
-use crate::batch::{is_mesh_file, overrides_for_file, parse_sets, ron_text_as_string};
+use crate::batch::{
+    create_out_dir, is_mesh_file, overrides_for_file, parse_sets, ron_text_as_string,
+};
 
 /// What to watch and how long.
 #[derive(Clone, Debug)]
@@ -171,9 +173,17 @@ pub fn is_editor_noise(p: &Path) -> bool {
         || (name.starts_with('#') && name.ends_with('#'))
         || name == "4913"
         || name.starts_with('.')
-        || [".swp", ".swo", ".swx", ".tmp", ".part", ".crdownload", ".bak"]
-            .iter()
-            .any(|s| name.ends_with(s))
+        || [
+            ".swp",
+            ".swo",
+            ".swx",
+            ".tmp",
+            ".part",
+            ".crdownload",
+            ".bak",
+        ]
+        .iter()
+        .any(|s| name.ends_with(s))
 }
 
 /// Files and folders of the current graph, for classifying events.
@@ -209,10 +219,108 @@ enum Change {
     NewFile(PathBuf),
 }
 
+/// What decides whether a node of a running plan is stale: per node (in topological order)
+/// its signature (kind, version, canonical params, input edges), upstream nodes and files.
+#[derive(Clone, Debug, Default)]
+struct Shape {
+    nodes: Vec<(String, String, Vec<String>, Vec<PathBuf>)>,
+}
+
+impl Shape {
+    fn of(plan: &Plan) -> Shape {
+        let nodes = plan
+            .order
+            .iter()
+            .map(|&i| {
+                let n = &plan.nodes[i];
+                let mut edges: Vec<String> = n
+                    .inputs
+                    .iter()
+                    .map(|e| format!("{}<-{}.{}", e.port, plan.nodes[e.from].name, e.from_port))
+                    .collect();
+                edges.sort();
+                let sig = format!(
+                    "{} v{} {} {}",
+                    n.kind.kind(),
+                    n.kind.version(),
+                    n.params.canonical,
+                    edges.join(",")
+                );
+                let ups = n
+                    .inputs
+                    .iter()
+                    .map(|e| plan.nodes[e.from].name.clone())
+                    .collect();
+                let files = n
+                    .params
+                    .input_files
+                    .iter()
+                    .map(|f| norm(&resolve_path(&plan.base_dir, f)))
+                    .collect();
+                (n.name.clone(), sig, ups, files)
+            })
+            .collect();
+        Shape { nodes }
+    }
+
+    /// Nodes of this plan whose results a change makes stale: those whose signature differs
+    /// in `new` (or that `new` lacks), those reading `file`, and everything downstream.
+    fn stale(&self, new: Option<&Shape>, file: Option<&Path>) -> BTreeSet<String> {
+        let mut stale = BTreeSet::new();
+        for (name, sig, ups, files) in &self.nodes {
+            let changed =
+                new.is_some_and(|n| !n.nodes.iter().any(|(m, s, _, _)| m == name && s == sig));
+            let reads = file.is_some_and(|f| files.iter().any(|x| x == f));
+            if changed || reads || ups.iter().any(|u| stale.contains(u)) {
+                stale.insert(name.clone());
+            }
+        }
+        stale
+    }
+}
+
 struct Running {
     run: usize,
     target: Target,
     cancel: CancelToken,
+    shape: Shape,
+    /// Nodes running now.
+    busy: BTreeSet<String>,
+    /// Nodes made stale by changes since the run started, and why; the run is cancelled once
+    /// every node still running is stale, so unaffected nodes finish and are cached.
+    stale: BTreeSet<String>,
+    because: Option<String>,
+    cancelled: bool,
+}
+
+impl Running {
+    fn mark_stale(
+        &mut self,
+        nodes: BTreeSet<String>,
+        why: &str,
+        emit: &(dyn Fn(WatchEvent) + Sync),
+    ) {
+        if nodes.is_empty() {
+            return;
+        }
+        self.stale.extend(nodes);
+        self.because.get_or_insert_with(|| why.to_string());
+        self.maybe_cancel(emit);
+    }
+
+    fn maybe_cancel(&mut self, emit: &(dyn Fn(WatchEvent) + Sync)) {
+        if self.cancelled || self.because.is_none() {
+            return;
+        }
+        if self.busy.iter().all(|n| self.stale.contains(n)) {
+            self.cancelled = true;
+            self.cancel.cancel();
+            emit(WatchEvent::Restarting {
+                run: self.run,
+                because: self.because.clone().unwrap_or_default(),
+            });
+        }
+    }
 }
 
 struct State<'r> {
@@ -268,7 +376,9 @@ impl<'r> State<'r> {
             Target::Main => load(g, self.registry, &self.sets).map_err(|e| e.to_string()),
             Target::File(f) => {
                 let ov = overrides_for_file(g, &self.sets, &self.bind, f)?;
-                load(g, self.registry, &ov).map_err(|e| e.to_string())
+                let plan = load(g, self.registry, &ov).map_err(|e| e.to_string())?;
+                create_out_dir(g, &ov)?;
+                Ok(plan)
             }
         }
     }
@@ -387,14 +497,13 @@ pub fn watch(
     }
 
     let (fs_tx, fs_rx) = unbounded::<DebounceEventResult>();
-    let mut debouncer =
-        new_debouncer(opts.debounce, None, move |r: DebounceEventResult| {
-            let _ = fs_tx.send(r);
-        })
-        .map_err(|e| WatchError::Notify {
-            path: graph_dir.clone(),
-            message: e.to_string(),
-        })?;
+    let mut debouncer = new_debouncer(opts.debounce, None, move |r: DebounceEventResult| {
+        let _ = fs_tx.send(r);
+    })
+    .map_err(|e| WatchError::Notify {
+        path: graph_dir.clone(),
+        message: e.to_string(),
+    })?;
     let mut watched: BTreeSet<PathBuf> = BTreeSet::new();
     let mut sync_watches = |st: &State, watched: &mut BTreeSet<PathBuf>| -> Vec<String> {
         let mut problems = Vec::new();
@@ -419,6 +528,8 @@ pub fn watch(
     });
 
     let (done_tx, done_rx) = unbounded::<usize>();
+    // (run, node, started?) from the running pipeline, to know which nodes are busy.
+    let (busy_tx, busy_rx) = unbounded::<(usize, String, bool)>();
     let mut finished = 0usize;
     let mut next_run = 0usize;
     let mut current: Option<Running> = None;
@@ -467,15 +578,22 @@ pub fn watch(
                                 graph_id,
                             };
                             let done_tx = done_tx.clone();
+                            let busy_tx = busy_tx.clone();
                             let t = target.clone();
+                            let shape = Shape::of(&plan);
                             scope.spawn(move || {
-                                run_target(run, t, plan, ropts, emit);
+                                run_target(run, t, plan, ropts, &busy_tx, emit);
                                 let _ = done_tx.send(run);
                             });
                             current = Some(Running {
                                 run,
                                 target,
                                 cancel,
+                                shape,
+                                busy: BTreeSet::new(),
+                                stale: BTreeSet::new(),
+                                because: None,
+                                cancelled: false,
                             });
                         }
                         Err(e) => emit(WatchEvent::Problem {
@@ -508,9 +626,21 @@ pub fn watch(
                             }
                         }
                     }
-                    handle_changes(&mut st, changes, &current, emit);
+                    handle_changes(&mut st, changes, &mut current, emit);
                     for p in sync_watches(&st, &mut watched) {
                         emit(WatchEvent::Problem { message: p });
+                    }
+                }
+                recv(busy_rx) -> msg => {
+                    if let Ok((run, node, started)) = msg {
+                        if let Some(r) = current.as_mut().filter(|r| r.run == run) {
+                            if started {
+                                r.busy.insert(node);
+                            } else {
+                                r.busy.remove(&node);
+                            }
+                            r.maybe_cancel(emit);
+                        }
                     }
                 }
                 recv(done_rx) -> msg => {
@@ -531,7 +661,7 @@ pub fn watch(
 fn handle_changes(
     st: &mut State,
     changes: BTreeSet<Change>,
-    current: &Option<Running>,
+    current: &mut Option<Running>,
     emit: &(dyn Fn(WatchEvent) + Sync),
 ) {
     let name = |p: &Path| {
@@ -544,12 +674,14 @@ fn handle_changes(
             Change::Graph => match st.reload() {
                 Ok(()) => {
                     let why = format!("{} changed", name(&st.graph_path));
-                    if let Some(r) = current {
-                        r.cancel.cancel();
-                        emit(WatchEvent::Restarting {
-                            run: r.run,
-                            because: why.clone(),
-                        });
+                    if let Some(r) = current.as_mut() {
+                        let new = st.plan_for(&r.target).ok().map(|p| Shape::of(&p));
+                        // A plan that no longer loads for this target: all of it is stale.
+                        let stale = match &new {
+                            Some(n) => r.shape.stale(Some(n), None),
+                            None => r.shape.stale(Some(&Shape::default()), None),
+                        };
+                        r.mark_stale(stale, &why, emit);
                         st.queue(r.target.clone(), why.clone());
                     }
                     st.queue(Target::Main, why.clone());
@@ -562,12 +694,9 @@ fn handle_changes(
             },
             Change::Input(p) => {
                 let why = format!("input file {} changed", name(&p));
-                if let Some(r) = current {
-                    r.cancel.cancel();
-                    emit(WatchEvent::Restarting {
-                        run: r.run,
-                        because: why.clone(),
-                    });
+                if let Some(r) = current.as_mut() {
+                    let stale = r.shape.stale(None, Some(&p));
+                    r.mark_stale(stale, &why, emit);
                     st.queue(r.target.clone(), why.clone());
                 }
                 st.queue(Target::Main, why.clone());
@@ -590,15 +719,14 @@ fn handle_changes(
                 } else {
                     format!("{} changed", name(&p))
                 };
-                let t = Target::File(p);
-                if let Some(r) = current.as_ref().filter(|r| r.target == t) {
-                    r.cancel.cancel();
-                    emit(WatchEvent::Restarting {
-                        run: r.run,
-                        because: why.clone(),
-                    });
+                if let Some(r) = current
+                    .as_mut()
+                    .filter(|r| r.target == Target::File(p.clone()))
+                {
+                    let stale = r.shape.stale(None, Some(&p));
+                    r.mark_stale(stale, &why, emit);
                 }
-                st.queue(t, why);
+                st.queue(Target::File(p), why);
             }
         }
     }
@@ -609,6 +737,7 @@ fn run_target(
     target: Target,
     plan: Plan<'_>,
     mut ropts: RunOptions,
+    busy: &crossbeam_channel::Sender<(usize, String, bool)>,
     emit: &(dyn Fn(WatchEvent) + Sync),
 ) {
     let t0 = Instant::now();
@@ -618,6 +747,15 @@ fn run_target(
         let h = s.spawn(|| crestflow_flow::run(&plan, &ropts));
         for e in rx.iter() {
             let done = matches!(e, Event::RunFinished { .. });
+            match &e {
+                Event::NodeStarted { node, .. } => {
+                    let _ = busy.send((run, node.clone(), true));
+                }
+                Event::NodeFinished { node, .. } => {
+                    let _ = busy.send((run, node.clone(), false));
+                }
+                _ => {}
+            }
             emit(WatchEvent::Engine { run, event: e });
             if done {
                 break;
@@ -758,7 +896,22 @@ pub fn render_human(e: &WatchEvent) {
                 node.as_ref().map(|n| format!(" [{n}]")).unwrap_or_default()
             ),
             Event::Report { node, port, values } => {
-                eprintln!("[run {run}] report {node}.{port}: {values}")
+                let items: Vec<String> = values
+                    .as_object()
+                    .map(|o| {
+                        o.iter()
+                            .map(|(k, v)| match v {
+                                serde_json::Value::Number(n) => format!(
+                                    "{k}={}",
+                                    crate::experiment::fmt_sig(n.as_f64().unwrap_or(f64::NAN))
+                                ),
+                                serde_json::Value::String(s) => format!("{k}={s}"),
+                                other => format!("{k}={other}"),
+                            })
+                            .collect()
+                    })
+                    .unwrap_or_default();
+                eprintln!("[run {run}] report {node}.{port}: {}", items.join(" "))
             }
             _ => {}
         },
@@ -801,6 +954,7 @@ pub fn watch_cmd(registry: &Registry, opts: WatchOptions, log: LogFormat) -> i32
                 if let WatchEvent::Invalid { error } = &e {
                     // Locations for people too.
                     render_load_error(error);
+                    eprintln!("keeping the last good graph; waiting for the next save");
                 }
                 let mut out = std::io::stdout().lock();
                 let _ = writeln!(out, "{}", to_json(&e));

@@ -107,6 +107,10 @@ pub fn write_plots(
     for sweep in &sweeps {
         let mut panels: Vec<(String, Series)> = Vec::new();
         for m in &metrics {
+            // Settings the metric does not depend on would only draw the same line twice.
+            let mut keys: Vec<&String> = differing.iter().filter(|k| *k != sweep).collect();
+            let all: Vec<&String> = differing.iter().collect();
+            keys.retain(|k| !independent_of(results, m, k, &all));
             let mut series: Series = BTreeMap::new();
             for r in results {
                 let Some(x) = setting(r, sweep).and_then(|v| ron_text_as_string(&v).parse().ok())
@@ -116,9 +120,8 @@ pub fn write_plots(
                 let Some(y) = r.metrics.get(m).and_then(|c| c.num()) else {
                     continue;
                 };
-                let label = differing
+                let label = keys
                     .iter()
-                    .filter(|k| *k != sweep)
                     .filter_map(|k| setting(r, k).map(|v| ron_text_as_string(&v)))
                     .collect::<Vec<_>>()
                     .join(", ");
@@ -126,6 +129,7 @@ pub fn write_plots(
             }
             for pts in series.values_mut() {
                 pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+                pts.dedup_by(|a, b| a.0 == b.0 && a.1 == b.1);
             }
             if !series.is_empty() {
                 panels.push((m.clone(), series));
@@ -139,6 +143,25 @@ pub fn write_plots(
         written.push(path);
     }
     Ok(written)
+}
+
+/// Whether `metric` is the same in every two runs that differ only in setting `k`.
+fn independent_of(results: &[RunResult], metric: &str, k: &str, all: &[&String]) -> bool {
+    let mut by_rest: BTreeMap<Vec<Option<String>>, u64> = BTreeMap::new();
+    for r in results {
+        let Some(v) = r.metrics.get(metric).and_then(|c| c.num()) else {
+            continue;
+        };
+        let rest: Vec<Option<String>> = all
+            .iter()
+            .filter(|n| n.as_str() != k)
+            .map(|n| setting(r, n))
+            .collect();
+        if *by_rest.entry(rest).or_insert(v.to_bits()) != v.to_bits() {
+            return false;
+        }
+    }
+    true
 }
 
 fn range(vals: impl Iterator<Item = f64>) -> (f64, f64) {

@@ -105,7 +105,9 @@ pub fn check_mesh(mesh: &TriMesh, name: &'static str) -> Result<(), MeshDistance
             });
         }
     }
-    if !(mesh.total_area() > 0.0) {
+    // Written so that a NaN area is rejected too.
+    let area = mesh.total_area();
+    if area.is_nan() || area <= 0.0 {
         return Err(MeshDistanceError::ZeroArea { mesh: name });
     }
     Ok(())
@@ -192,9 +194,9 @@ impl Aabb {
         hi: [f64::NEG_INFINITY; 3],
     };
     fn grow(&mut self, p: V3) {
-        for k in 0..3 {
-            self.lo[k] = self.lo[k].min(p[k]);
-            self.hi[k] = self.hi[k].max(p[k]);
+        for (k, &c) in p.iter().enumerate() {
+            self.lo[k] = self.lo[k].min(c);
+            self.hi[k] = self.hi[k].max(c);
         }
     }
     fn merge(&mut self, o: &Aabb) {
@@ -204,8 +206,8 @@ impl Aabb {
     /// Squared distance from `p` to the box (0 inside).
     fn dist2(&self, p: V3) -> f64 {
         let mut s = 0.0;
-        for k in 0..3 {
-            let d = (self.lo[k] - p[k]).max(p[k] - self.hi[k]).max(0.0);
+        for (k, &c) in p.iter().enumerate() {
+            let d = (self.lo[k] - c).max(c - self.hi[k]).max(0.0);
             s += d * d;
         }
         s

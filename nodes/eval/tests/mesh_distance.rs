@@ -162,7 +162,9 @@ fn sphere_against_scaled_sphere() {
     let rep = mesh_distance(&a, &b, &params, Par::Rayon).unwrap();
     let h = rep.num("hausdorff_abs").unwrap();
     assert!((h - 0.01 * r0).abs() < 1e-12, "hausdorff {h}");
-    assert!((rep.num("b_to_a.hausdorff_rel").unwrap() * a.bbox_diagonal() - 0.01 * r0).abs() < 1e-12);
+    assert!(
+        (rep.num("b_to_a.hausdorff_rel").unwrap() * a.bbox_diagonal() - 0.01 * r0).abs() < 1e-12
+    );
     // Every distance is 0.01 × (distance of the face plane from the centre), which lies
     // between the inradius of the mesh and r.
     let inradius = (0..a.n_faces())
@@ -172,7 +174,10 @@ fn sphere_against_scaled_sphere() {
         })
         .fold(f64::INFINITY, f64::min);
     let mean = rep.num("mean_rel").unwrap() * a.bbox_diagonal();
-    assert!(mean <= 0.01 * r0 && mean >= 0.01 * inradius * 0.999, "mean {mean}");
+    assert!(
+        mean <= 0.01 * r0 && mean >= 0.01 * inradius * 0.999,
+        "mean {mean}"
+    );
     assert!(rep.num("a_to_b.hausdorff_rel").unwrap() < rep.num("b_to_a.hausdorff_rel").unwrap());
 }
 
@@ -244,7 +249,10 @@ fn bad_inputs_are_named() {
         MeshDistanceError::NonFinite { mesh, vertex, .. } => assert_eq!((mesh, vertex), ("b", 4)),
         e => panic!("unexpected {e}"),
     }
-    let flat = TriMesh::new(vec![[0.0; 3], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0]], vec![[0, 1, 2]]);
+    let flat = TriMesh::new(
+        vec![[0.0; 3], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0]],
+        vec![[0, 1, 2]],
+    );
     assert_eq!(
         mesh_distance(&good, &flat, &p, Par::Seq).unwrap_err(),
         MeshDistanceError::ZeroArea { mesh: "b" }

@@ -193,9 +193,8 @@ impl<'m> VertexGrid<'m> {
             for z in (c[2] - r)..=(c[2] + r) {
                 for y in (c[1] - r)..=(c[1] + r) {
                     for x in (c[0] - r)..=(c[0] + r) {
-                        let on_shell = (x - c[0]).abs() == r
-                            || (y - c[1]).abs() == r
-                            || (z - c[2]).abs() == r;
+                        let on_shell =
+                            (x - c[0]).abs() == r || (y - c[1]).abs() == r || (z - c[2]).abs() == r;
                         if !on_shell
                             || x < 0
                             || y < 0
@@ -206,8 +205,8 @@ impl<'m> VertexGrid<'m> {
                         {
                             continue;
                         }
-                        let cell = ((z as usize * self.dims[1]) + y as usize) * self.dims[0]
-                            + x as usize;
+                        let cell =
+                            ((z as usize * self.dims[1]) + y as usize) * self.dims[0] + x as usize;
                         let s = self.starts[cell] as usize;
                         let e = self.starts[cell + 1] as usize;
                         for &v in &self.items[s..e] {
@@ -260,7 +259,12 @@ pub fn curve_fixed_vertices(
                 return Err(ConstraintError::NonFinite {
                     vertex,
                     what: "position",
-                    value: fv.position.iter().cloned().find(|c| !c.is_finite()).unwrap_or(0.0),
+                    value: fv
+                        .position
+                        .iter()
+                        .cloned()
+                        .find(|c| !c.is_finite())
+                        .unwrap_or(0.0),
                 });
             }
             let g = grid.get_or_insert_with(|| VertexGrid::new(mesh));
@@ -388,7 +392,9 @@ mod tests {
         for _ in 0..300 {
             let mut p = [0.0; 3];
             for c in p.iter_mut() {
-                s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                s = s
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
                 *c = ((s >> 11) as f64 / (1u64 << 53) as f64) * 3.0 - 1.5;
             }
             let want = (0..m.n_vertices() as u32)

@@ -17,9 +17,10 @@
 //!
 //! Steps (`step`):
 //! - `Explicit`: x_i ← x_i + λ (Σ_j w_ij x_j / Σ_j w_ij − x_i), all vertices from the previous
-//!   positions (Jacobi). Negative cotangent weights (obtuse triangles) are clamped to 0 so the
-//!   average stays a convex combination; a vertex whose weights all vanish uses uniform weights.
-//!   Stable for λ in (0, 1].
+//!   positions (Jacobi). The cotangent weights are used as they are, which keeps linear
+//!   precision (a plane is a fixed point), unless negative weights (non-Delaunay edges)
+//!   dominate a vertex's row (Σ w < ½ Σ |w|): that vertex then uses the weights clamped at 0
+//!   (a convex combination), or uniform weights if none is positive. λ in (0, 1].
 //! - `Implicit` (backward Euler, DMSB99): (M + τ L) x' = M x, with L the positive
 //!   semi-definite stiffness matrix (cotangent, or the graph Laplacian D − A for uniform
 //!   weights) and M the lumped mass (`mass`: barycentric or mixed Voronoi areas; the degree
@@ -42,11 +43,11 @@ use crestflow_flow::{
 use crestflow_geom::vec3::{self, V3};
 use crestflow_geom::{FeatureCurveNetwork, TriMesh};
 use crestflow_nodes_spectral::sparse::{
-    laplacian_and_mass, CsrMatrix, LaplacianOptions, MassKind, OperatorError, SparseError,
-    SpdSolver,
+    CsrMatrix, MassKind, OperatorError, SparseError, SpdSolver,
 };
 
 use crate::constraints::{curve_fixed_vertices, ConstraintError};
+use crate::cotan::CotanAssembler;
 
 /// Edge weights of the Laplacian.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -157,6 +158,11 @@ pub enum SmoothError {
         #[source]
         source: SparseError,
     },
+    #[error(
+        "vertex {vertex} left the finite numbers: the steps diverged (try a smaller lambda or \
+         time_step, or fewer iterations)"
+    )]
+    Diverged { vertex: usize },
     #[error("invalid parameters: {0}")]
     Params(String),
     #[error("cancelled")]
@@ -167,7 +173,7 @@ impl SmoothError {
     /// The node error kind this maps to.
     pub fn kind(&self) -> ErrorKind {
         match self {
-            SmoothError::Solve { .. } => ErrorKind::NumericalFailure,
+            SmoothError::Solve { .. } | SmoothError::Diverged { .. } => ErrorKind::NumericalFailure,
             SmoothError::Cancelled => ErrorKind::Cancelled,
             _ => ErrorKind::InvalidInput,
         }
@@ -237,7 +243,11 @@ fn check_mesh(mesh: &TriMesh) -> Result<(), SmoothError> {
             });
         }
         if t[0] == t[1] || t[0] == t[2] || t[1] == t[2] {
-            let vertex = if t[0] == t[1] || t[0] == t[2] { t[0] } else { t[1] };
+            let vertex = if t[0] == t[1] || t[0] == t[2] {
+                t[0]
+            } else {
+                t[1]
+            };
             return Err(SmoothError::RepeatedVertex { face, vertex });
         }
     }
@@ -260,27 +270,27 @@ fn uniform_laplacian(mesh: &TriMesh) -> Result<CsrMatrix, SparseError> {
     CsrMatrix::from_triplets(n, n, &trip)
 }
 
-/// Stiffness matrix and mass diagonal on the current positions.
+/// Stiffness matrix and mass diagonal of the input, and for cotangent weights the assembler
+/// that recomputes them on moved positions.
+#[allow(clippy::type_complexity)]
 fn operator(
     mesh: &TriMesh,
     params: &LaplacianParams,
     par: Par,
-) -> Result<(CsrMatrix, Vec<f64>), SmoothError> {
+) -> Result<(Option<CotanAssembler>, CsrMatrix, Vec<f64>), SmoothError> {
     match params.weights {
         Weights::Cotan => {
-            let opts = LaplacianOptions {
-                mass: match params.mass {
-                    Mass::Barycentric => MassKind::Barycentric,
-                    Mass::Voronoi => MassKind::Voronoi,
-                },
-                ..LaplacianOptions::default()
+            let kind = match params.mass {
+                Mass::Barycentric => MassKind::Barycentric,
+                Mass::Voronoi => MassKind::Voronoi,
             };
-            Ok(laplacian_and_mass(mesh, &opts, par)?)
+            let (asm, l, m) = CotanAssembler::new(mesh, kind, par)?;
+            Ok((Some(asm), l, m))
         }
         Weights::Uniform => {
             let l = uniform_laplacian(mesh).map_err(OperatorError::from)?;
             let d = l.diagonal();
-            Ok((l, d))
+            Ok((None, l, d))
         }
     }
 }
@@ -291,24 +301,37 @@ fn explicit_step(l: &CsrMatrix, x: &[V3], fixed: &[bool], lambda: f64, par: Par)
         if fixed[i] {
             return x[i];
         }
-        let mut acc = [0.0; 3];
-        let mut wsum = 0.0;
-        let mut uacc = [0.0; 3];
-        let mut ucount = 0usize;
+        // Raw weights keep the cotangent operator's linear precision (a plane stays in place);
+        // when negative weights dominate a row (badly shaped one-ring) the clamped convex
+        // weights, and failing those uniform weights, keep the step stable.
+        let mut raw = [0.0; 3];
+        let mut raw_sum = 0.0;
+        let mut abs_sum = 0.0;
+        let mut pos = [0.0; 3];
+        let mut pos_sum = 0.0;
+        let mut uni = [0.0; 3];
+        let mut count = 0usize;
         for (j, v) in l.row(i) {
             if j == i {
                 continue;
             }
-            let w = (-v).max(0.0);
-            acc = vec3::add(acc, vec3::scale(x[j], w));
-            wsum += w;
-            uacc = vec3::add(uacc, x[j]);
-            ucount += 1;
+            let w = -v;
+            raw = vec3::add(raw, vec3::scale(x[j], w));
+            raw_sum += w;
+            abs_sum += w.abs();
+            if w > 0.0 {
+                pos = vec3::add(pos, vec3::scale(x[j], w));
+                pos_sum += w;
+            }
+            uni = vec3::add(uni, x[j]);
+            count += 1;
         }
-        let avg = if wsum > 0.0 && wsum.is_finite() {
-            vec3::scale(acc, 1.0 / wsum)
-        } else if ucount > 0 {
-            vec3::scale(uacc, 1.0 / ucount as f64)
+        let avg = if raw_sum > 0.5 * abs_sum && raw_sum.is_finite() {
+            vec3::scale(raw, 1.0 / raw_sum)
+        } else if pos_sum > 0.0 && pos_sum.is_finite() {
+            vec3::scale(pos, 1.0 / pos_sum)
+        } else if count > 0 {
+            vec3::scale(uni, 1.0 / count as f64)
         } else {
             return x[i];
         };
@@ -326,6 +349,8 @@ struct Reduced {
     /// For every stored entry k of L: its position in `matrix`, or `usize::MAX` when its row
     /// or column is fixed.
     slot: Vec<usize>,
+    /// Position of each reduced row's diagonal entry in `matrix`.
+    diag: Vec<usize>,
 }
 
 impl Reduced {
@@ -342,12 +367,16 @@ impl Reduced {
         let mut row_ptr = vec![0usize];
         let mut col_idx = Vec::new();
         let mut slot = vec![usize::MAX; l.nnz()];
+        let mut diag = vec![usize::MAX; vertex.len()];
         let (rp, ci) = (l.row_ptr(), l.col_idx());
         for &v in &vertex {
             let i = v as usize;
             for k in rp[i]..rp[i + 1] {
                 let j = ci[k];
                 if index[j] != u32::MAX {
+                    if j == i {
+                        diag[index[i] as usize] = col_idx.len();
+                    }
                     slot[k] = col_idx.len();
                     col_idx.push(index[j] as usize);
                 }
@@ -355,12 +384,21 @@ impl Reduced {
             row_ptr.push(col_idx.len());
         }
         let nnz = col_idx.len();
-        let matrix = CsrMatrix::from_raw(vertex.len(), vertex.len(), row_ptr, col_idx, vec![0.0; nnz])?;
+        let matrix =
+            CsrMatrix::from_raw(vertex.len(), vertex.len(), row_ptr, col_idx, vec![0.0; nnz])?;
+        // Every free vertex has faces, hence a diagonal entry in L.
+        if let Some(r) = diag.iter().position(|&k| k == usize::MAX) {
+            return Err(SparseError::Malformed(format!(
+                "row {} of the Laplacian has no diagonal entry",
+                vertex[r]
+            )));
+        }
         Ok(Reduced {
             index,
             vertex,
             matrix,
             slot,
+            diag,
         })
     }
 
@@ -373,14 +411,8 @@ impl Reduced {
                 vals[self.slot[k]] += tau * lv;
             }
         }
-        let (rp, ci) = (self.matrix.row_ptr().to_vec(), self.matrix.col_idx().to_vec());
-        let vals = self.matrix.values_mut();
-        for (r, &v) in self.vertex.iter().enumerate() {
-            for k in rp[r]..rp[r + 1] {
-                if ci[k] == r {
-                    vals[k] += mass[v as usize];
-                }
-            }
+        for (&v, &k) in self.vertex.iter().zip(&self.diag) {
+            vals[k] += mass[v as usize];
         }
     }
 
@@ -439,12 +471,12 @@ pub fn laplacian_smooth_with(
         stats.fixed_by_curves = fixed.iter().filter(|&&f| f).count();
     }
     let topo = mesh.topology();
-    for v in 0..n {
+    for (v, fx) in fixed.iter_mut().enumerate() {
         if topo.vertex_faces(v as u32).is_empty() {
-            fixed[v] = true;
+            *fx = true;
             stats.isolated += 1;
-        } else if params.fix_boundary && topo.is_boundary_vertex[v] && !fixed[v] {
-            fixed[v] = true;
+        } else if params.fix_boundary && topo.is_boundary_vertex[v] && !*fx {
+            *fx = true;
             stats.fixed_boundary += 1;
         }
     }
@@ -455,8 +487,7 @@ pub fn laplacian_smooth_with(
         Weights::Cotan => params.time_step * h * h,
         Weights::Uniform => params.time_step,
     };
-    let mut work = mesh.clone();
-    let (mut l, mut mass) = operator(mesh, params, par)?;
+    let (assembler, mut l, mut mass) = operator(mesh, params, par)?;
     let mut solver: Option<(Reduced, SpdSolver)> = None;
     for it in 0..params.iterations {
         if !keep_going(it as f32 / params.iterations.max(1) as f32) {
@@ -465,8 +496,9 @@ pub fn laplacian_smooth_with(
         // The uniform operator does not depend on the positions.
         let update = params.update_weights && params.weights == Weights::Cotan;
         if it > 0 && update {
-            work = work.with_positions(x.clone());
-            (l, mass) = operator(&work, params, par)?;
+            if let Some(asm) = &assembler {
+                asm.assemble(&mesh.triangles, &x, &mut l, &mut mass, par);
+            }
         }
         match params.step {
             Step::Explicit => x = explicit_step(&l, &x, &fixed, params.lambda, par),
@@ -504,6 +536,9 @@ pub fn laplacian_smooth_with(
         }
     }
     keep_going(1.0);
+    if let Some(vertex) = x.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
+        return Err(SmoothError::Diverged { vertex });
+    }
 
     let diag = mesh.bbox_diagonal();
     let mut max_d = 0.0f64;

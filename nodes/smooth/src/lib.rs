@@ -8,6 +8,7 @@
 use crestflow_flow::Registry;
 
 pub mod constraints;
+pub mod cotan;
 pub mod laplacian;
 
 pub use constraints::{curve_fixed_vertices, ConstraintError};

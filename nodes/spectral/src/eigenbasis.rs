@@ -11,7 +11,11 @@
 //! a disconnected mesh's zeros) up to multiplicity `b`.
 //!
 //! The shift is relative: `σ = −shift · n / area`, with `n / area` the scale of the largest
-//! eigenvalues, so it is a tiny fraction of the spectrum at any mesh size or unit.
+//! eigenvalues, so it is a tiny fraction of the spectrum at any mesh size or unit. It is not
+//! made tinier than needed (default 1e-5): the zero eigenvalue's `θ = 1/|σ|` sets the
+//! rounding level of the projected problem, and a huge `θ` would blur the small ones.
+//! The reported eigenvalues are the Rayleigh quotients `φᵀ L φ / φᵀ M φ` of the final
+//! vectors (error quadratic in the vector error), sorted ascending.
 //!
 //! Convergence: a Ritz pair `(θ, y)` is accepted when `‖S y − θ y‖_M ≤ tol · θ` (read off the
 //! Lanczos coupling block, no extra solve). The output reports the true backward errors
@@ -29,6 +33,7 @@
 //! split columns in fixed groups. `Par::Seq` and `Par::Rayon` give the same bits. Each
 //! eigenvector's sign is fixed: its entry of largest magnitude is positive.
 
+use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::matmul::matmul;
 use faer::{Accum, Mat, MatRef};
 use serde::{Deserialize, Serialize};
@@ -47,13 +52,16 @@ use crate::sparse::{CsrMatrix, SparseError, SpdSolver};
 pub struct EigenbasisParams {
     /// Number of eigenpairs (default 60, range 1..=2000).
     pub k: usize,
-    /// Relative shift: σ = −shift · n / area (default 1e-8, range 1e-14..=1e-2).
+    /// Relative shift: σ = −shift · n / area (default 1e-5, range 1e-12..=1e-2).
     pub shift: f64,
-    /// Ritz pairs are accepted when ‖S y − θ y‖_M ≤ tol · θ (default 1e-10, range
+    /// Ritz pairs are accepted when ‖S y − θ y‖_M ≤ tol · θ (default 1e-9, range
     /// 1e-14..=1e-4).
     pub tol: f64,
     /// Block size; 0 chooses it from k (default 0, range 0..=256).
     pub block: usize,
+    /// Largest Krylov basis before a thick restart; 0 chooses max(2k + 2·block, k + 4·block)
+    /// (default 0, range 0..=10000).
+    pub subspace: usize,
     /// Most block Lanczos steps before giving up (default 1000, range 1..=100000).
     pub max_steps: usize,
     /// Seed of the random start block (default 0).
@@ -64,9 +72,10 @@ impl Default for EigenbasisParams {
     fn default() -> Self {
         EigenbasisParams {
             k: 60,
-            shift: 1e-8,
-            tol: 1e-10,
+            shift: 1e-5,
+            tol: 1e-9,
             block: 0,
+            subspace: 0,
             max_steps: 1000,
             seed: 0,
         }
@@ -77,9 +86,20 @@ impl Validate for EigenbasisParams {
     fn validate(&self) -> Vec<ParamIssue> {
         let mut issues = Vec::new();
         check_range(&mut issues, "k", self.k, 1, 2000);
-        check_range(&mut issues, "shift", self.shift, 1e-14, 1e-2);
+        check_range(&mut issues, "shift", self.shift, 1e-12, 1e-2);
         check_range(&mut issues, "tol", self.tol, 1e-14, 1e-4);
         check_range(&mut issues, "block", self.block, 0, 256);
+        check_range(&mut issues, "subspace", self.subspace, 0, 10_000);
+        if self.subspace > 0 && self.subspace < self.k + 2 * self.block.max(1) {
+            issues.push(ParamIssue::new(
+                "subspace",
+                format!(
+                    "{} is below k + 2·block = {}",
+                    self.subspace,
+                    self.k + 2 * self.block.max(1)
+                ),
+            ));
+        }
         check_range(&mut issues, "max_steps", self.max_steps, 1, 100_000);
         issues
     }
@@ -172,7 +192,15 @@ fn mref(v: &[f64], rows: usize, cols: usize) -> MatRef<'_, f64> {
 
 /// `Aᵀ D B` for column-major `A` (n × p), `B` (n × q) and an optional diagonal `D`: partial
 /// products over fixed row chunks, summed in chunk order. Returns p × q column-major.
-fn at_d_b(a: &[f64], p: usize, d: Option<&[f64]>, b: &[f64], q: usize, n: usize, par: Par) -> Vec<f64> {
+fn at_d_b(
+    a: &[f64],
+    p: usize,
+    d: Option<&[f64]>,
+    b: &[f64],
+    q: usize,
+    n: usize,
+    par: Par,
+) -> Vec<f64> {
     let chunks = n.div_ceil(ROW_CHUNK);
     let parts = par.map_collect(chunks, |c| {
         let r0 = c * ROW_CHUNK;
@@ -182,11 +210,25 @@ fn at_d_b(a: &[f64], p: usize, d: Option<&[f64]>, b: &[f64], q: usize, n: usize,
         match d {
             None => {
                 let bm = mref(b, n, q).subrows(r0, len);
-                matmul(out.as_mut(), Accum::Replace, am.transpose(), bm, 1.0, faer::Par::Seq);
+                matmul(
+                    out.as_mut(),
+                    Accum::Replace,
+                    am.transpose(),
+                    bm,
+                    1.0,
+                    faer::Par::Seq,
+                );
             }
             Some(d) => {
                 let db = Mat::<f64>::from_fn(len, q, |i, j| d[r0 + i] * b[j * n + r0 + i]);
-                matmul(out.as_mut(), Accum::Replace, am.transpose(), db.as_ref(), 1.0, faer::Par::Seq);
+                matmul(
+                    out.as_mut(),
+                    Accum::Replace,
+                    am.transpose(),
+                    db.as_ref(),
+                    1.0,
+                    faer::Par::Seq,
+                );
             }
         }
         out
@@ -210,7 +252,14 @@ fn a_x(a: &[f64], p: usize, x: &[f64], q: usize, n: usize, par: Par) -> Vec<f64>
         let len = ROW_CHUNK.min(n - r0);
         let am = mref(a, n, p).subrows(r0, len);
         let mut out = Mat::<f64>::zeros(len, q);
-        matmul(out.as_mut(), Accum::Replace, am, mref(x, p, q), 1.0, faer::Par::Seq);
+        matmul(
+            out.as_mut(),
+            Accum::Replace,
+            am,
+            mref(x, p, q),
+            1.0,
+            faer::Par::Seq,
+        );
         out
     });
     let mut y = vec![0.0; n * q];
@@ -236,17 +285,42 @@ fn sub_a_x(w: &mut [f64], v: &[f64], p: usize, c: &[f64], q: usize, n: usize, pa
 /// Symmetric eigen-decomposition of a small dense matrix (column-major, symmetrised), with
 /// eigenvalues sorted descending (ties by index) and the vectors in the same order.
 fn sym_eig_desc(h: &[f64], m: usize) -> (Vec<f64>, Vec<f64>) {
-    let mut a = nalgebra::DMatrix::<f64>::from_column_slice(m, m, h);
-    let at = a.transpose();
-    a = (a + at) * 0.5;
-    let e = a.symmetric_eigen();
+    let a = Mat::<f64>::from_fn(m, m, |i, j| 0.5 * (h[j * m + i] + h[i * m + j]));
+    let mut s = faer::diag::Diag::<f64>::zeros(m);
+    let mut u = Mat::<f64>::zeros(m, m);
+    let fpar = faer::Par::Seq;
+    let mut mem = MemBuffer::new(faer::linalg::evd::self_adjoint_evd_scratch::<f64>(
+        m,
+        faer::linalg::evd::ComputeEigenvectors::Yes,
+        fpar,
+        Default::default(),
+    ));
+    let ok = faer::linalg::evd::self_adjoint_evd(
+        a.as_ref(),
+        s.as_mut(),
+        Some(u.as_mut()),
+        fpar,
+        MemStack::new(&mut mem),
+        Default::default(),
+    );
+    if ok.is_err() {
+        // faer's tridiagonal QR did not converge (not seen in practice): fall back to
+        // nalgebra's Jacobi-free implicit QR on the same matrix.
+        let e = nalgebra::DMatrix::<f64>::from_fn(m, m, |i, j| a[(i, j)]).symmetric_eigen();
+        for i in 0..m {
+            s[i] = e.eigenvalues[i];
+            for r in 0..m {
+                u[(r, i)] = e.eigenvectors[(r, i)];
+            }
+        }
+    }
     let mut order: Vec<usize> = (0..m).collect();
-    order.sort_by(|&i, &j| e.eigenvalues[j].total_cmp(&e.eigenvalues[i]).then(i.cmp(&j)));
-    let vals = order.iter().map(|&i| e.eigenvalues[i]).collect();
+    order.sort_by(|&i, &j| s[j].total_cmp(&s[i]).then(i.cmp(&j)));
+    let vals = order.iter().map(|&i| s[i]).collect();
     let mut vecs = vec![0.0; m * m];
     for (c, &i) in order.iter().enumerate() {
         for r in 0..m {
-            vecs[c * m + r] = e.eigenvectors[(r, i)];
+            vecs[c * m + r] = u[(r, i)];
         }
     }
     (vals, vecs)
@@ -259,7 +333,9 @@ fn svqb(w: &mut [f64], q: usize, mass: &[f64], n: usize, par: Par) -> Option<Vec
     let g = at_d_b(w, q, Some(mass), w, q, n, par);
     let (d, u) = sym_eig_desc(&g, q);
     let dmax = d.first().copied().unwrap_or(0.0);
-    if !(dmax > 0.0) || d.iter().any(|&x| !(x > 1e-26 * dmax)) {
+    // NaN-safe: a NaN fails `is_finite` or the comparison.
+    let tiny = |x: f64| x.is_nan() || x <= 1e-26 * dmax;
+    if !dmax.is_finite() || dmax <= 0.0 || d.iter().any(|&x| tiny(x)) {
         return None;
     }
     // T = U D^{-1/2}: W ← W T; R = D^{1/2} Uᵀ.
@@ -278,20 +354,20 @@ fn svqb(w: &mut [f64], q: usize, mass: &[f64], n: usize, par: Par) -> Option<Vec
     Some(r)
 }
 
-/// `C = Vᵀ M W` and `W −= V C`, twice; returns the summed coefficients (p × q).
-fn orthogonalize(w: &mut [f64], q: usize, v: &[f64], p: usize, mass: &[f64], n: usize, par: Par) -> Vec<f64> {
-    let mut total = vec![0.0; p * q];
-    if p == 0 {
-        return total;
-    }
-    for _ in 0..2 {
-        let c = at_d_b(v, p, Some(mass), w, q, n, par);
-        sub_a_x(w, v, p, &c, q, n, par);
-        for (t, x) in total.iter_mut().zip(&c) {
-            *t += x;
-        }
-    }
-    total
+/// `C = Vᵀ M W` and `W −= V C` (one classical Gram–Schmidt pass); returns C (p × q). The
+/// caller runs it twice with a normalisation in between ("twice is enough").
+fn orthogonalize(
+    w: &mut [f64],
+    q: usize,
+    v: &[f64],
+    p: usize,
+    mass: &[f64],
+    n: usize,
+    par: Par,
+) -> Vec<f64> {
+    let c = at_d_b(v, p, Some(mass), w, q, n, par);
+    sub_a_x(w, v, p, &c, q, n, par);
+    c
 }
 
 /// The k smallest eigenpairs of `op` (module docs).
@@ -363,19 +439,40 @@ pub fn eigenbasis_with_cancel(
     } else {
         (k.div_ceil(4).div_ceil(8) * 8).clamp(8, 32)
     };
-    let m_max = (2 * k + 2 * block).max(k + 4 * block);
+    let m_max = if params.subspace > 0 {
+        params.subspace.max(k + 2 * block)
+    } else {
+        (2 * k + 2 * block).max(k + 4 * block)
+    };
 
-    let (values, vectors, solves) = if n <= 2 * (m_max + block) {
+    let (_ritz_values, vectors, solves) = if n <= 2 * (m_max + block) {
         let (v, x) = dense_eig(&l, &mass, k);
         (v, x, 0)
     } else {
         lanczos(&l, &mass, sigma, k, block, m_max, params, par, cancelled)?
     };
 
+    // Rayleigh quotients, ascending order (ties keep the solver's order).
+    let lv = l.mul_dense(&vectors, k, par)?;
+    let rq: Vec<f64> = (0..k)
+        .map(|i| {
+            let x = &vectors[i * n..(i + 1) * n];
+            let (mut num, mut den) = (0.0, 0.0);
+            for j in 0..n {
+                num += x[j] * lv[i * n + j];
+                den += x[j] * mass[j] * x[j];
+            }
+            num / den
+        })
+        .collect();
+    let mut order: Vec<usize> = (0..k).collect();
+    order.sort_by(|&a, &b| rq[a].total_cmp(&rq[b]).then(a.cmp(&b)));
+    let values: Vec<f64> = order.iter().map(|&i| rq[i]).collect();
+
     // Scatter back to all vertices, fix signs, measure.
     let mut full = vec![0.0; n_all * k];
-    for i in 0..k {
-        let col = &vectors[i * n..(i + 1) * n];
+    for (i, &src) in order.iter().enumerate() {
+        let col = &vectors[src * n..(src + 1) * n];
         let mut best = 0usize;
         for (j, x) in col.iter().enumerate() {
             if x.abs() > col[best].abs() {
@@ -387,8 +484,7 @@ pub fn eigenbasis_with_cancel(
             full[i * n_all + a] = s * col[j];
         }
     }
-    let (max_residual, max_orthonormality_error) =
-        quality(l_all, &op.mass, &values, &full, par)?;
+    let (max_residual, max_orthonormality_error) = quality(l_all, &op.mass, &values, &full, par)?;
     Ok(EigenBasis {
         n: n_all,
         values,
@@ -449,7 +545,11 @@ fn dense_eig(l: &CsrMatrix, mass: &[f64], k: usize) -> (Vec<f64>, Vec<f64>) {
     a = (a + at) * 0.5;
     let e = a.symmetric_eigen();
     let mut order: Vec<usize> = (0..n).collect();
-    order.sort_by(|&i, &j| e.eigenvalues[i].total_cmp(&e.eigenvalues[j]).then(i.cmp(&j)));
+    order.sort_by(|&i, &j| {
+        e.eigenvalues[i]
+            .total_cmp(&e.eigenvalues[j])
+            .then(i.cmp(&j))
+    });
     let mut vals = Vec::with_capacity(k);
     let mut vecs = vec![0.0; n * k];
     for (c, &i) in order.iter().take(k).enumerate() {
@@ -481,7 +581,7 @@ fn lanczos(
     // Basis V (n × cap), H (cap × cap) column-major.
     let mut v = vec![0.0; n * cap];
     let mut h = vec![0.0; cap * cap];
-    let mut rng = SplitMix64(params.seed ^ 0x5EED_0F_C0DE);
+    let mut rng = SplitMix64(params.seed ^ 0x005E_ED0F_C0DE);
     {
         let start = &mut v[..n * b];
         for x in start.iter_mut() {
@@ -551,7 +651,9 @@ fn lanczos(
             }
             s2.sqrt()
         };
-        let rel: Vec<f64> = (0..k).map(|i| resid(i) / theta[i].abs().max(1e-300)).collect();
+        let rel: Vec<f64> = (0..k)
+            .map(|i| resid(i) / theta[i].abs().max(1e-300))
+            .collect();
         let converged = rel.iter().take_while(|&&r| r <= params.tol).count();
         if converged == k {
             let vals: Vec<f64> = theta[..k].iter().map(|t| sigma + 1.0 / t).collect();

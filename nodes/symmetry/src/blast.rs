@@ -30,7 +30,7 @@ use crestflow_flow::{
     Validate,
 };
 use crestflow_geom::vec3::{add, dist, dot, norm, scale, sub, V3};
-use crestflow_geom::{FeatureCurveNetwork, TriMesh};
+use crestflow_geom::{CurveLabel, FeatureCurveNetwork, SurfacePoint, TriMesh};
 use serde::{Deserialize, Serialize};
 
 use crate::transform::{fit_rigid, kabsch, mean_transform, quat_angle_deg, RigidTransform};
@@ -47,6 +47,10 @@ pub struct BlastParams {
     /// Upper hysteresis threshold: a match grows while below it (thesis: 2 t_low).
     /// In (0, 200], at least `t_low`. Default 2.
     pub t_high: f64,
+    /// Matches stop growing at this length (bounds the cost on long closed curves, where
+    /// every point pair of two circles would otherwise grow all the way round). In [2, 1e6],
+    /// at least `l0`. Default 100.
+    pub max_length: f64,
     /// Growth step Δl (thesis: 5 h). In [0.5, 1000]. Default 5.
     pub delta_l: f64,
     /// Curves with sharpness w_κ above this multiple of κ_avg count as strong even when shorter
@@ -75,10 +79,17 @@ pub struct BlastParams {
     pub mode_fraction: f64,
     /// At most this many transformations per curve pair. In [1, 64]. Default 6.
     pub max_modes: u32,
-    /// ICP iterations refining each transformation. In [0, 100]. Default 5.
+    /// At most this many ICP iterations refining each transformation. In [0, 1000].
+    /// Default 50.
     pub icp_iterations: u32,
     /// Also match against the mirrored network to find reflections. Default true.
     pub mirror: bool,
+    /// Only match curves of the same label (ridge with ridge, ravine with ravine). Default true.
+    pub same_label: bool,
+    /// A grown match is dropped when the surface normals along it disagree, after the
+    /// transformation, by more than this mean angle (degrees; needs the mesh). In [0, 180].
+    /// Default 45.
+    pub max_normal_angle_deg: f64,
 }
 
 impl Default for BlastParams {
@@ -87,6 +98,7 @@ impl Default for BlastParams {
             l0: 25.0,
             t_low: 1.0,
             t_high: 2.0,
+            max_length: 100.0,
             delta_l: 5.0,
             strength_factor: 0.5,
             sample_step: 1.0,
@@ -98,8 +110,10 @@ impl Default for BlastParams {
             min_bend: 0.5,
             mode_fraction: 0.5,
             max_modes: 6,
-            icp_iterations: 5,
+            icp_iterations: 50,
             mirror: true,
+            same_label: true,
+            max_normal_angle_deg: 45.0,
         }
     }
 }
@@ -110,6 +124,13 @@ impl Validate for BlastParams {
         check_range(&mut v, "l0", self.l0, 2.0, 1000.0);
         check_range(&mut v, "t_low", self.t_low, 1e-6, 100.0);
         check_range(&mut v, "t_high", self.t_high, 1e-6, 200.0);
+        check_range(&mut v, "max_length", self.max_length, 2.0, 1e6);
+        if self.max_length < self.l0 {
+            v.push(ParamIssue::new(
+                "max_length",
+                format!("{} is below l0 = {}", self.max_length, self.l0),
+            ));
+        }
         check_range(&mut v, "delta_l", self.delta_l, 0.5, 1000.0);
         check_range(&mut v, "strength_factor", self.strength_factor, 0.0, 100.0);
         check_range(&mut v, "sample_step", self.sample_step, 0.1, 10.0);
@@ -133,7 +154,14 @@ impl Validate for BlastParams {
         check_range(&mut v, "min_bend", self.min_bend, 0.0, 100.0);
         check_range(&mut v, "mode_fraction", self.mode_fraction, 1e-6, 1.0);
         check_range(&mut v, "max_modes", self.max_modes, 1, 64);
-        check_range(&mut v, "icp_iterations", self.icp_iterations, 0, 100);
+        check_range(&mut v, "icp_iterations", self.icp_iterations, 0, 1000);
+        check_range(
+            &mut v,
+            "max_normal_angle_deg",
+            self.max_normal_angle_deg,
+            0.0,
+            180.0,
+        );
         if self.t_high < self.t_low {
             v.push(ParamIssue::new(
                 "t_high",
@@ -213,7 +241,10 @@ pub enum BlastError {
 struct Sampled {
     curve: u32,
     pts: Vec<V3>,
+    /// Surface normals at the samples (when a mesh is given).
+    normals: Option<Vec<V3>>,
     closed: bool,
+    label: CurveLabel,
 }
 
 impl Sampled {
@@ -236,33 +267,36 @@ impl Sampled {
     }
 }
 
-/// Resamples a polyline at arc-length `step` (a closed one at the nearest step that divides its
-/// length).
-fn resample(points: &[V3], closed: bool, step: f64) -> Vec<V3> {
-    let mut pts: Vec<V3> = points.to_vec();
-    if closed && pts.len() > 2 {
-        pts.push(pts[0]);
-    }
+/// Arc-length samples of a polyline at `step` (a closed one at the nearest step that divides
+/// its length), as (segment, parameter) pairs over the polyline's vertices (a closed polyline's
+/// last segment runs back to vertex 0).
+fn resample(points: &[V3], closed: bool, step: f64) -> Vec<(usize, f64)> {
+    let n = points.len();
+    let nseg = if closed && n > 2 {
+        n
+    } else {
+        n.saturating_sub(1)
+    };
     let mut cum = vec![0.0];
-    for w in pts.windows(2) {
+    for k in 0..nseg {
         let last = cum[cum.len() - 1];
-        cum.push(last + dist(w[0], w[1]));
+        cum.push(last + dist(points[k], points[(k + 1) % n]));
     }
     let total = cum[cum.len() - 1];
-    if pts.len() < 2 || total <= 0.0 {
-        return pts.into_iter().take(1).collect();
+    if nseg == 0 || total <= 0.0 {
+        return if n > 0 { vec![(0, 0.0)] } else { Vec::new() };
     }
-    let (n, h) = if closed {
-        let n = (total / step).round().max(3.0) as usize;
-        (n, total / n as f64)
+    let (count, h) = if closed {
+        let c = (total / step).round().max(3.0) as usize;
+        (c, total / c as f64)
     } else {
         ((total / step).floor() as usize + 1, step)
     };
-    let mut out = Vec::with_capacity(n);
+    let mut out = Vec::with_capacity(count);
     let mut seg = 0;
-    for k in 0..n {
+    for k in 0..count {
         let s = k as f64 * h;
-        while seg + 2 < cum.len() && cum[seg + 1] < s {
+        while seg + 1 < nseg && cum[seg + 1] < s {
             seg += 1;
         }
         let len = cum[seg + 1] - cum[seg];
@@ -271,9 +305,41 @@ fn resample(points: &[V3], closed: bool, step: f64) -> Vec<V3> {
         } else {
             0.0
         };
-        out.push(add(pts[seg], scale(sub(pts[seg + 1], pts[seg]), t)));
+        out.push((seg, t));
     }
     out
+}
+
+/// Values at the samples of [`resample`] by linear interpolation of per-vertex values.
+fn interpolate(values: &[V3], samples: &[(usize, f64)]) -> Vec<V3> {
+    let n = values.len();
+    samples
+        .iter()
+        .map(|&(seg, t)| {
+            let a = values[seg];
+            let b = values[(seg + 1) % n];
+            add(a, scale(sub(b, a), t))
+        })
+        .collect()
+}
+
+/// The surface normal at a network vertex from the mesh's vertex normals.
+fn normal_at(loc: &SurfacePoint, mesh: &TriMesh, vn: &[V3]) -> Option<V3> {
+    let get = |v: u32| vn.get(v as usize).copied();
+    let n = match *loc {
+        SurfacePoint::Vertex(v) => get(v)?,
+        SurfacePoint::Edge { a, b, t } => add(scale(get(a)?, 1.0 - t), scale(get(b)?, t)),
+        SurfacePoint::Face { f, bary } => {
+            let tri = mesh.triangles.get(f as usize)?;
+            let mut acc = [0.0; 3];
+            for k in 0..3 {
+                acc = add(acc, scale(get(tri[k])?, bary[k]));
+            }
+            acc
+        }
+        SurfacePoint::Free => return None,
+    };
+    Some(n)
 }
 
 /// The chord signature of the segment of `m` steps starting at sample `i` in direction `dir`.
@@ -290,13 +356,14 @@ fn signature(s: &Sampled, i: usize, dir: i64, m: usize) -> [f64; 6] {
     ]
 }
 
+/// A candidate point pair of a curve pair: sample on a (forward), sample on b, b's direction.
+type PointPair = (u32, u32, i8);
+
 /// One grown point match: its transformation and affinity.
 struct Vote {
     t: RigidTransform,
     w: f64,
     i: usize,
-    j: usize,
-    dir: i64,
     m: usize,
 }
 
@@ -306,6 +373,7 @@ struct Scaled {
     m0: usize,
     dm: usize,
     msig: usize,
+    mmax: usize,
     t_low: f64,
     t_high: f64,
     bin_t: f64,
@@ -322,13 +390,24 @@ pub fn blast(
     params: &BlastParams,
     par: Par,
 ) -> Result<CurveMatches, BlastError> {
-    blast_with_unit(network, mesh.mean_edge_length(), params, par)
+    blast_impl(network, mesh.mean_edge_length(), Some(mesh), params, par)
 }
 
-/// [`blast`] with an explicit length unit h (for networks without a mesh).
+/// [`blast`] with an explicit length unit h, for networks without a mesh (no surface normals:
+/// matches are checked on the curves' shapes only).
 pub fn blast_with_unit(
     network: &FeatureCurveNetwork,
     unit: f64,
+    params: &BlastParams,
+    par: Par,
+) -> Result<CurveMatches, BlastError> {
+    blast_impl(network, unit, None, params, par)
+}
+
+fn blast_impl(
+    network: &FeatureCurveNetwork,
+    unit: f64,
+    mesh: Option<&TriMesh>,
     params: &BlastParams,
     par: Par,
 ) -> Result<CurveMatches, BlastError> {
@@ -371,6 +450,7 @@ pub fn blast_with_unit(
         m0: ((params.l0 * h) / step).round().max(2.0) as usize,
         dm: ((params.delta_l * h) / step).round().max(1.0) as usize,
         msig: ((params.signature_length * h) / step).round().max(2.0) as usize,
+        mmax: ((params.max_length * h) / step).round().max(2.0) as usize,
         t_low: params.t_low * h,
         t_high: params.t_high * h,
         bin_t: params.bin_translation * h,
@@ -399,6 +479,7 @@ pub fn blast_with_unit(
         0.0
     };
     let min_len = sc.msig as f64 * step;
+    let vertex_normals = mesh.map(|m| (m, m.vertex_normals()));
     let mut strong = Vec::new();
     let mut sampled = Vec::new();
     for c in 0..network.curves.len() {
@@ -407,15 +488,38 @@ pub fn blast_with_unit(
         if !evidence || lengths[c] < min_len {
             continue;
         }
-        let pts = resample(&network.curve_points(c), network.curves[c].closed, step);
-        if pts.len() <= sc.msig {
+        let raw = network.curve_points(c);
+        let at = resample(&raw, network.curves[c].closed, step);
+        if at.len() <= sc.msig {
             continue;
         }
+        let normals = vertex_normals.as_ref().and_then(|(m, vn)| {
+            let per_vertex: Option<Vec<V3>> = network.curves[c]
+                .vertices
+                .iter()
+                .map(|&v| normal_at(&network.vertices[v as usize].location, m, vn))
+                .collect();
+            per_vertex.map(|nv| {
+                interpolate(&nv, &at)
+                    .into_iter()
+                    .map(|n| {
+                        let l = norm(n);
+                        if l > 0.0 {
+                            scale(n, 1.0 / l)
+                        } else {
+                            n
+                        }
+                    })
+                    .collect()
+            })
+        });
         strong.push(c as u32);
         sampled.push(Sampled {
             curve: c as u32,
-            pts,
+            pts: interpolate(&raw, &at),
+            normals,
             closed: network.curves[c].closed,
+            label: network.curves[c].label,
         });
     }
     // Mirror plane through the centre of the curves' bounding box.
@@ -435,6 +539,27 @@ pub fn blast_with_unit(
                 .iter()
                 .map(|p| [2.0 * mirror_x - p[0], p[1], p[2]])
                 .collect()
+        })
+        .collect();
+    let mirrored_normals: Vec<Option<Vec<V3>>> = sampled
+        .iter()
+        .map(|s| {
+            s.normals
+                .as_ref()
+                .map(|ns| ns.iter().map(|n| [-n[0], n[1], n[2]]).collect())
+        })
+        .collect();
+    // Nearest-sample lookup on each curve for the ICP refinement.
+    let sample_trees: Vec<rstar::RTree<rstar::primitives::GeomWithData<V3, u32>>> = sampled
+        .iter()
+        .map(|s| {
+            rstar::RTree::bulk_load(
+                s.pts
+                    .iter()
+                    .enumerate()
+                    .map(|(k, p)| rstar::primitives::GeomWithData::new(*p, k as u32))
+                    .collect(),
+            )
         })
         .collect();
 
@@ -483,7 +608,7 @@ pub fn blast_with_unit(
             })
             .collect()
     });
-    let mut by_pair: BTreeMap<(u32, u32), Vec<(u32, u32, i8)>> = BTreeMap::new();
+    let mut by_pair: BTreeMap<(u32, u32), Vec<PointPair>> = BTreeMap::new();
     let mut point_pairs = 0;
     for (qi, list) in found.into_iter().enumerate() {
         let a = entries[queries[qi]].0;
@@ -494,6 +619,9 @@ pub fn blast_with_unit(
     }
     let mut jobs: Vec<((u32, u32), bool)> = Vec::new();
     for &(a, b) in by_pair.keys() {
+        if params.same_label && sampled[a as usize].label != sampled[b as usize].label {
+            continue;
+        }
         if a != b {
             jobs.push(((a, b), false));
         }
@@ -506,8 +634,24 @@ pub fn blast_with_unit(
         let cands = &by_pair[&(a, b)];
         let sa = &sampled[a as usize];
         let sb = &sampled[b as usize];
-        let a_pts: &[V3] = if mir { &mirrored[a as usize] } else { &sa.pts };
-        match_pair(sa, a_pts, sb, cands, mir, &sc, params)
+        let side = Side {
+            pts: if mir { &mirrored[a as usize] } else { &sa.pts },
+            normals: if mir {
+                mirrored_normals[a as usize].as_deref()
+            } else {
+                sa.normals.as_deref()
+            },
+        };
+        match_pair(
+            sa,
+            &side,
+            sb,
+            &sample_trees[b as usize],
+            cands,
+            mir,
+            &sc,
+            params,
+        )
     });
     let matches = results.into_iter().flatten().collect();
     Ok(CurveMatches {
@@ -521,37 +665,45 @@ pub fn blast_with_unit(
     })
 }
 
+/// Curve a as matched: its sample positions and normals, mirrored or not.
+struct Side<'a> {
+    pts: &'a [V3],
+    normals: Option<&'a [V3]>,
+}
+
 /// Mean distance of the segments of `m` steps from (a, i, forward) and (b, j, dir) after
 /// moving a's start onto b's start and rotating by the best rotation about it; the rotation and
 /// the spread of a's segment (second singular value per point).
 fn segment_distance(
-    a: &Sampled,
-    a_pts: &[V3],
+    a: &Side,
     b: &Sampled,
     i: usize,
     j: usize,
     dir: i64,
     m: usize,
+    with_spread: bool,
 ) -> (f64, RigidTransform, f64) {
-    let na = a_pts.len() as i64;
-    let p0 = a_pts[i];
+    let na = a.pts.len();
+    let p0 = a.pts[i];
     let p1 = b.pts[j];
     let mut va = Vec::with_capacity(m + 1);
     let mut vb = Vec::with_capacity(m + 1);
     for k in 0..=m {
-        let ia = ((i + k) as i64).rem_euclid(na) as usize;
-        let _ = a;
-        va.push(sub(a_pts[ia], p0));
+        va.push(sub(a.pts[(i + k) % na], p0));
         vb.push(sub(b.at(j, k, dir), p1));
     }
     // Spread about the best line through the segment: second eigenvalue of its covariance.
-    let c: V3 = scale(
-        va.iter().fold([0.0; 3], |s, v| add(s, *v)),
-        1.0 / va.len() as f64,
-    );
-    let centred: Vec<V3> = va.iter().map(|v| sub(*v, c)).collect();
-    let (_, sv) = kabsch(&centred, &centred, None);
-    let spread = sv[1] / va.len() as f64;
+    let spread = if with_spread {
+        let c: V3 = scale(
+            va.iter().fold([0.0; 3], |s, v| add(s, *v)),
+            1.0 / va.len() as f64,
+        );
+        let centred: Vec<V3> = va.iter().map(|v| sub(*v, c)).collect();
+        let (_, sv) = kabsch(&centred, &centred, None);
+        sv[1] / va.len() as f64
+    } else {
+        0.0
+    };
     let (r, _) = kabsch(&va, &vb, None);
     let rt = RigidTransform {
         rotation: r,
@@ -575,33 +727,59 @@ fn segment_distance(
     )
 }
 
+/// Mean cosine between the rotated normals of a's segment and b's normals (1 without normals).
+fn normal_agreement(
+    a: &Side,
+    b: &Sampled,
+    t: &RigidTransform,
+    i: usize,
+    j: usize,
+    dir: i64,
+    m: usize,
+) -> f64 {
+    let (Some(na), Some(nb)) = (a.normals, b.normals.as_ref()) else {
+        return 1.0;
+    };
+    let n = nb.len() as i64;
+    let mut sum = 0.0;
+    for k in 0..=m {
+        let x = t.rotate(na[(i + k) % na.len()]);
+        let jb = (j as i64 + dir * k as i64).rem_euclid(n) as usize;
+        sum += dot(x, nb[jb]);
+    }
+    sum / (m + 1) as f64
+}
+
 /// Feature BLAST (Algorithm 3.1) for every candidate point pair of one curve pair, voting,
 /// maxima and refinement.
+#[allow(clippy::too_many_arguments)]
 fn match_pair(
-    a: &Sampled,
-    a_pts: &[V3],
+    sa: &Sampled,
+    a: &Side,
     b: &Sampled,
-    cands: &[(u32, u32, i8)],
+    b_tree: &rstar::RTree<rstar::primitives::GeomWithData<V3, u32>>,
+    cands: &[PointPair],
     mirrored: bool,
     sc: &Scaled,
     params: &BlastParams,
 ) -> Vec<CurveMatch> {
     let mut votes: Vec<Vote> = Vec::new();
+    let min_cos = params.max_normal_angle_deg.to_radians().cos();
     for &(i, j, dir) in cands {
         let (i, j, dir) = (i as usize, j as usize, dir as i64);
-        let avail = a.avail(i, 1).min(b.avail(j, dir));
+        let avail = sa.avail(i, 1).min(b.avail(j, dir)).min(sc.mmax);
         let mut m = sc.m0.min(avail);
         if m < sc.msig {
             continue;
         }
-        let (mut d, mut t, spread) = segment_distance(a, a_pts, b, i, j, dir, m);
+        let (mut d, mut t, spread) = segment_distance(a, b, i, j, dir, m, true);
         if d >= sc.t_low || spread < sc.min_bend2 {
             continue;
         }
         // Grow by Δl while the distance stays below t_high; keep the last length that did.
         while m < avail {
             let m2 = (m + sc.dm).min(avail);
-            let (d2, t2, _) = segment_distance(a, a_pts, b, i, j, dir, m2);
+            let (d2, t2, _) = segment_distance(a, b, i, j, dir, m2, false);
             if d2 >= sc.t_high {
                 break;
             }
@@ -609,13 +787,16 @@ fn match_pair(
             d = d2;
             t = t2;
         }
+        // The surfaces must agree too: a curve in a plane matches its own reflection in that
+        // plane, but the surface around it does not.
+        if normal_agreement(a, b, &t, i, j, dir, m) < min_cos {
+            continue;
+        }
         let l = m as f64 * sc.step;
         votes.push(Vote {
             t,
             w: l * (-d / (0.5 * sc.t_high)).exp(),
             i,
-            j,
-            dir,
             m,
         });
     }
@@ -676,99 +857,199 @@ fn match_pair(
     }
     let mut out = Vec::new();
     for (t0, wsum, inliers) in modes {
-        if let Some(m) = refine(
-            a, a_pts, b, &votes, &inliers, t0, wsum, mirrored, sc, params,
-        ) {
+        let fit = Fit {
+            sa,
+            a,
+            b,
+            b_tree,
+            sc,
+        };
+        if let Some(m) = fit.refine(&votes, &inliers, t0, wsum, mirrored, params) {
             out.push(m);
         }
     }
     out
 }
 
-/// Refines a transformation by ICP of the samples of a covered by the inlier votes onto the
-/// polyline b.
-#[allow(clippy::too_many_arguments)]
-fn refine(
-    a: &Sampled,
-    a_pts: &[V3],
-    b: &Sampled,
-    votes: &[Vote],
-    inliers: &[usize],
-    t0: RigidTransform,
-    wsum: f64,
-    mirrored: bool,
-    sc: &Scaled,
-    params: &BlastParams,
-) -> Option<CurveMatch> {
-    let na = a_pts.len();
-    let mut covered = BTreeSet::new();
-    for &k in inliers {
-        let v = &votes[k];
-        let _ = (v.j, v.dir);
-        for s in 0..=v.m {
-            covered.insert((v.i + s) % na);
-        }
-    }
-    let src: Vec<usize> = covered.into_iter().collect();
-    let mut t = t0;
-    let mut pairs: Vec<(usize, V3, f64)> = Vec::new();
-    for it in 0..=params.icp_iterations {
-        pairs.clear();
-        for &u in &src {
-            let p = t.apply(a_pts[u]);
-            let (q, d) = closest_on_polyline(&b.pts, b.closed, p);
-            if d <= sc.t_high {
-                pairs.push((u, q, d));
-            }
-        }
-        if pairs.len() < 3 || it == params.icp_iterations {
-            break;
-        }
-        let xa: Vec<V3> = pairs.iter().map(|&(u, _, _)| a_pts[u]).collect();
-        let xb: Vec<V3> = pairs.iter().map(|&(_, q, _)| q).collect();
-        t = fit_rigid(&xa, &xb, None);
-    }
-    if pairs.len() < 3 {
-        return None;
-    }
-    let mean_d = pairs.iter().map(|p| p.2).sum::<f64>() / pairs.len() as f64;
-    let matched = pairs.len() as f64 * sc.step;
-    Some(CurveMatch {
-        curve_a: a.curve,
-        curve_b: b.curve,
-        mirrored,
-        transform: t,
-        votes: wsum,
-        matched_length: matched,
-        mean_distance: mean_d,
-        affinity: matched * (-mean_d / (0.5 * sc.t_high)).exp(),
-        correspondences: pairs.iter().map(|&(u, q, _)| [a.pts[u], q]).collect(),
-    })
+/// What ICP refinement of one curve pair needs.
+struct Fit<'a> {
+    sa: &'a Sampled,
+    a: &'a Side<'a>,
+    b: &'a Sampled,
+    b_tree: &'a rstar::RTree<rstar::primitives::GeomWithData<V3, u32>>,
+    sc: &'a Scaled,
 }
 
-/// The closest point to `p` on the polyline through `pts` and its distance.
-fn closest_on_polyline(pts: &[V3], closed: bool, p: V3) -> (V3, f64) {
-    let n = pts.len();
-    let nseg = if closed { n } else { n.saturating_sub(1) };
-    let mut best = (pts[0], dist(pts[0], p));
-    for s in 0..nseg {
-        let x = pts[s];
-        let y = pts[(s + 1) % n];
-        let e = sub(y, x);
-        let ee = dot(e, e);
-        let tt = if ee > 0.0 {
-            (dot(sub(p, x), e) / ee).clamp(0.0, 1.0)
-        } else {
-            0.0
-        };
-        let q = add(x, scale(e, tt));
-        let d = dist(q, p);
-        if d < best.1 {
-            best = (q, d);
+impl Fit<'_> {
+    /// The closest point to `p` on polyline b (on a segment next to b's nearest sample), its
+    /// distance and the unit tangent there.
+    fn closest(&self, p: V3) -> Option<(V3, f64, V3)> {
+        let near = self.b_tree.nearest_neighbor(p)?;
+        let pts = &self.b.pts;
+        let n = pts.len();
+        let u = near.data as usize;
+        let mut best = (pts[u], f64::INFINITY, [0.0; 3]);
+        let mut segs = Vec::with_capacity(2);
+        if u + 1 < n || self.b.closed {
+            segs.push((u, (u + 1) % n));
         }
+        if u > 0 || self.b.closed {
+            segs.push(((u + n - 1) % n, u));
+        }
+        for (x, y) in segs {
+            let (x, y) = (pts[x], pts[y]);
+            let e = sub(y, x);
+            let ee = dot(e, e);
+            let tt = if ee > 0.0 {
+                (dot(sub(p, x), e) / ee).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            let q = add(x, scale(e, tt));
+            let d = dist(q, p);
+            if d < best.1 && ee > 0.0 {
+                best = (q, d, scale(e, 1.0 / ee.sqrt()));
+            }
+        }
+        if best.1.is_infinite() {
+            return Some((pts[u], dist(pts[u], p), [0.0; 3]));
+        }
+        Some(best)
     }
-    let _ = norm;
-    best
+
+    /// Refines a transformation by ICP of the samples of a covered by the inlier votes onto
+    /// the polyline b (point-to-point ICP converges slowly along the curves, hence the many
+    /// iterations; it stops once the transformation no longer moves).
+    fn refine(
+        &self,
+        votes: &[Vote],
+        inliers: &[usize],
+        t0: RigidTransform,
+        wsum: f64,
+        mirrored: bool,
+        params: &BlastParams,
+    ) -> Option<CurveMatch> {
+        let na = self.a.pts.len();
+        let mut covered = BTreeSet::new();
+        for &k in inliers {
+            let v = &votes[k];
+            for s in 0..=v.m {
+                covered.insert((v.i + s) % na);
+            }
+        }
+        let src: Vec<usize> = covered.into_iter().collect();
+        let mut t = t0;
+        let mut pairs: Vec<(usize, V3, f64, V3)> = Vec::new();
+        // A few point-to-point steps to get close, then Gauss–Newton point-to-line steps, which
+        // also converge along the curve where point-to-point ICP crawls.
+        let p2p = 5.min(params.icp_iterations);
+        for it in 0..=params.icp_iterations {
+            pairs.clear();
+            for &u in &src {
+                let p = t.apply(self.a.pts[u]);
+                if let Some((q, d, tan)) = self.closest(p) {
+                    // Points beyond an end of b are not matched (they would pull the
+                    // transformation along the curve).
+                    let at_end =
+                        !self.b.closed && (q == self.b.pts[0] || Some(&q) == self.b.pts.last());
+                    if d <= self.sc.t_high && !at_end {
+                        pairs.push((u, q, d, tan));
+                    }
+                }
+            }
+            if pairs.len() < 3 || it == params.icp_iterations {
+                break;
+            }
+            let t2 = if it < p2p {
+                let xa: Vec<V3> = pairs.iter().map(|&(u, ..)| self.a.pts[u]).collect();
+                let xb: Vec<V3> = pairs.iter().map(|&(_, q, ..)| q).collect();
+                fit_rigid(&xa, &xb, None)
+            } else {
+                match point_to_line_step(&t, self.a.pts, &pairs) {
+                    Some(x) => x,
+                    None => break,
+                }
+            };
+            let moved = dist(t2.translation, t.translation)
+                + norm(sub(t2.rotate([1.0, 0.0, 0.0]), t.rotate([1.0, 0.0, 0.0]))) * self.sc.step;
+            t = t2;
+            if it >= p2p && moved < 1e-10 * self.sc.step {
+                break;
+            }
+        }
+        if pairs.len() < 3 {
+            return None;
+        }
+        let mean_d = pairs.iter().map(|p| p.2).sum::<f64>() / pairs.len() as f64;
+        if !mean_d.is_finite() {
+            return None;
+        }
+        let matched = pairs.len() as f64 * self.sc.step;
+        Some(CurveMatch {
+            curve_a: self.sa.curve,
+            curve_b: self.b.curve,
+            mirrored,
+            transform: t,
+            votes: wsum,
+            matched_length: matched,
+            mean_distance: mean_d,
+            affinity: matched * (-mean_d / (0.5 * self.sc.t_high)).exp(),
+            correspondences: pairs
+                .iter()
+                .map(|&(u, q, ..)| [self.sa.pts[u], q])
+                .collect(),
+        })
+    }
+}
+
+/// One Gauss–Newton step of point-to-line ICP: minimises Σ |P_k (p_k + ω × p_k + δ − q_k)|²
+/// with P_k the projection across the tangent of b at q_k, then applies the small motion
+/// (ω, δ) to `t`. A tiny damping keeps the slide along straight curves from blowing up.
+fn point_to_line_step(
+    t: &RigidTransform,
+    a_pts: &[V3],
+    pairs: &[(usize, V3, f64, V3)],
+) -> Option<RigidTransform> {
+    let mut jtj = nalgebra::Matrix6::<f64>::zeros();
+    let mut jtr = nalgebra::Vector6::<f64>::zeros();
+    for &(u, q, _, tan) in pairs {
+        let p = t.apply(a_pts[u]);
+        // P = I − τ τᵀ
+        let mut proj = nalgebra::Matrix3::<f64>::identity();
+        for r in 0..3 {
+            for c in 0..3 {
+                proj[(r, c)] -= tan[r] * tan[c];
+            }
+        }
+        // d(ω × p)/dω = −[p]×
+        let px = nalgebra::Matrix3::new(0.0, p[2], -p[1], -p[2], 0.0, p[0], p[1], -p[0], 0.0);
+        let mut j = nalgebra::Matrix3x6::<f64>::zeros();
+        j.fixed_view_mut::<3, 3>(0, 0).copy_from(&(proj * px));
+        j.fixed_view_mut::<3, 3>(0, 3).copy_from(&proj);
+        let r = proj * nalgebra::Vector3::new(p[0] - q[0], p[1] - q[1], p[2] - q[2]);
+        jtj += j.transpose() * j;
+        jtr += j.transpose() * r;
+    }
+    let damp = 1e-9 * jtj.trace().max(1e-300);
+    for k in 0..6 {
+        jtj[(k, k)] += damp;
+    }
+    let x = jtj.cholesky()?.solve(&(-jtr));
+    if !x.iter().all(|v| v.is_finite()) {
+        return None;
+    }
+    let w = [x[0], x[1], x[2]];
+    let angle = norm(w);
+    let rot = if angle > 0.0 {
+        RigidTransform::rotation_about(w, angle, [0.0; 3])
+    } else {
+        RigidTransform::identity()
+    };
+    let step = RigidTransform {
+        rotation: rot.rotation,
+        translation: [x[3], x[4], x[5]],
+    };
+    Some(step.compose(t))
 }
 
 /// The `symmetry.blast` node.

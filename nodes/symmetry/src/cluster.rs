@@ -20,7 +20,7 @@ use crestflow_flow::{
     check_range, Ctx, ErrorKind, Inputs, NodeError, NodeKind, Outputs, Par, ParamIssue, Port,
     Validate,
 };
-use crestflow_geom::vec3::{add, dist, V3};
+use crestflow_geom::vec3::{dist, V3};
 use serde::{Deserialize, Serialize};
 
 use crate::blast::CurveMatches;
@@ -75,6 +75,8 @@ pub struct ClusterMember {
     pub from: u32,
     pub to: u32,
     pub affinity: f64,
+    /// Mean distance of the refined match (mesh units).
+    pub residual: f64,
 }
 
 /// A cluster of similar transformations.
@@ -197,6 +199,7 @@ pub fn cluster(
             from: m.curve_a,
             to: m.curve_b,
             affinity: m.affinity,
+            residual: m.mean_distance,
         };
         let inv = m.transform.inverse();
         // For a reflection S = T∘M, S⁻¹ = M∘T⁻¹ = (M∘T⁻¹∘M)∘M.
@@ -326,17 +329,37 @@ pub fn cluster(
         }
         let mut ms: Vec<usize> = members[k].clone();
         ms.sort_unstable();
-        let list: Vec<(RigidTransform, f64)> = ms
-            .iter()
-            .map(|&i| (items[i].t, items[i].member.affinity))
-            .collect();
         let pairs: BTreeSet<(u32, u32)> = ms
             .iter()
             .map(|&i| (items[i].member.from, items[i].member.to))
             .collect();
+        // The representative: the mean weighted by affinity / residual² (precision weights:
+        // a member that aligns its curves exactly is more reliable than one whose curves only
+        // resemble each other), then re-averaged over the members within a quarter of the
+        // cluster radius of it, so that partial (sliding) matches at the rim do not bias it.
+        let floor = (1e-3 * h).powi(2);
+        let list: Vec<(RigidTransform, f64)> = ms
+            .iter()
+            .map(|&i| {
+                let m = &items[i].member;
+                (items[i].t, m.affinity / (m.residual * m.residual + floor))
+            })
+            .collect();
+        let mut repr = mean_transform(&list);
+        for _ in 0..3 {
+            let core: Vec<(RigidTransform, f64)> = list
+                .iter()
+                .filter(|(t, _)| distance(t, &repr) <= 0.25)
+                .copied()
+                .collect();
+            if core.is_empty() {
+                break;
+            }
+            repr = mean_transform(&core);
+        }
         clusters.push(TransformCluster {
             mirrored: items[k].mirrored,
-            transform: mean_transform(&list),
+            transform: repr,
             members: ms.iter().map(|&i| items[i].member.clone()).collect(),
             support: weight[k],
             pairs: pairs.len(),
@@ -348,7 +371,6 @@ pub fn cluster(
             .then(x.members[0].match_index.cmp(&y.members[0].match_index))
             .then(x.members[0].inverse.cmp(&y.members[0].inverse))
     });
-    let _ = add;
     Ok(TransformClusters {
         unit: h,
         mirror_x: matches.mirror_x,

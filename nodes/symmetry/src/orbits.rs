@@ -28,7 +28,7 @@ use crestflow_geom::FeatureCurveNetwork;
 use serde::{Deserialize, Serialize};
 
 use crate::cluster::TransformClusters;
-use crate::transform::{quat_angle_deg, RigidTransform};
+use crate::transform::RigidTransform;
 
 /// Parameters of `symmetry.orbits`. Lengths are multiples of the mean edge length h.
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -563,7 +563,6 @@ fn reflection_orbits(items: &[(usize, V3, f64, f64)], tol: f64, atol: f64, out: 
             support: 0.0,
         });
     }
-    let _ = quat_angle_deg;
 }
 
 /// The orbits as a [`Report`]: `orbits`, and per orbit `orbit_<i>.kind`, `.instances`,

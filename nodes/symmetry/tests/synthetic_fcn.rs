@@ -29,7 +29,10 @@ fn template() -> Vec<Vec<V3>> {
     vec![a, b]
 }
 
-fn network(copies: &[RigidTransform], mirror_too: Option<&dyn Fn(V3) -> V3>) -> FeatureCurveNetwork {
+fn network(
+    copies: &[RigidTransform],
+    mirror_too: Option<&dyn Fn(V3) -> V3>,
+) -> FeatureCurveNetwork {
     let mut net = FeatureCurveNetwork::default();
     let mut add = |pts: Vec<V3>| {
         let start = net.vertices.len() as u32;
@@ -176,15 +179,16 @@ fn mirror_symmetric_pair() {
         let s = 2.0 * (p[0] * n[0] + p[1] * n[1] + p[2] * n[2] - d);
         [p[0] - s * n[0], p[1] - s * n[1], p[2] - s * n[2]]
     };
-    let o = run(
-        &network(&[RigidTransform::identity()], Some(&m)),
-        Par::Seq,
-    );
+    let o = run(&network(&[RigidTransform::identity()], Some(&m)), Par::Seq);
     assert_eq!(o.orbits.len(), 1, "{o:#?}");
     let Generator::Reflection { normal, offset } = &o.orbits[0].generator else {
         panic!("not a reflection: {o:?}")
     };
-    let s = if normal[0] * n[0] + normal[2] * n[2] < 0.0 { -1.0 } else { 1.0 };
+    let s = if normal[0] * n[0] + normal[2] * n[2] < 0.0 {
+        -1.0
+    } else {
+        1.0
+    };
     let cosang = s * (normal[0] * n[0] + normal[1] * n[1] + normal[2] * n[2]);
     assert!(cosang.clamp(-1.0, 1.0).acos().to_degrees() < 1.0);
     assert!((s * offset - d).abs() < 0.01 * H, "offset {offset}");

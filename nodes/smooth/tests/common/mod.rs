@@ -52,7 +52,11 @@ pub fn cube(n: usize) -> TriMesh {
     let mut triangles = Vec::new();
     let mut vid = |c: [usize; 3], positions: &mut Vec<V3>| -> u32 {
         *index.entry(c).or_insert_with(|| {
-            positions.push([c[0] as f64 / n as f64, c[1] as f64 / n as f64, c[2] as f64 / n as f64]);
+            positions.push([
+                c[0] as f64 / n as f64,
+                c[1] as f64 / n as f64,
+                c[2] as f64 / n as f64,
+            ]);
             (positions.len() - 1) as u32
         })
     };
@@ -91,7 +95,9 @@ pub fn cube(n: usize) -> TriMesh {
 pub fn cube_distance(p: V3) -> f64 {
     let inside = p.iter().all(|&c| (0.0..=1.0).contains(&c));
     if inside {
-        p.iter().map(|&c| c.min(1.0 - c)).fold(f64::INFINITY, f64::min)
+        p.iter()
+            .map(|&c| c.min(1.0 - c))
+            .fold(f64::INFINITY, f64::min)
     } else {
         p.iter()
             .map(|&c| (-c).max(c - 1.0).max(0.0))
@@ -131,4 +137,29 @@ pub fn tilted_plane(n: usize, jitter: f64, seed: u64) -> TriMesh {
         }
     }
     TriMesh::new(positions, triangles)
+}
+
+/// A gear-like closed surface with `teeth` repeated features: the unit icosphere of `level`
+/// with every vertex pushed out radially by `height` · g(k φ) · sin² θ, where φ is the
+/// longitude, θ the colatitude and g a trapezoid wave (flat tooth tops and gaps joined by
+/// steep flanks). Each tooth has two convex creases (tooth top edges) and two concave ones
+/// (gap edges) running along meridians, fading towards the poles: the same feature repeated
+/// `teeth` times by rotation, like the petals of the thesis' lotus (Table 5.1).
+pub fn gear(level: u32, teeth: usize, height: f64) -> TriMesh {
+    let base = crestflow_geom::shapes::sphere(1.0, level).expect("valid sphere level");
+    let pos = base
+        .positions
+        .iter()
+        .map(|&p| {
+            let phi = p[1].atan2(p[0]);
+            let sin2 = 1.0 - p[2] * p[2];
+            let u = phi / (2.0 * std::f64::consts::PI) * teeth as f64;
+            // Triangle wave in [0, 1], then a trapezoid: flat below 0.3 and above 0.7.
+            let tri = 2.0 * (u - u.floor() - 0.5).abs();
+            let g = ((tri - 0.3) / 0.4).clamp(0.0, 1.0);
+            let r = 1.0 + height * g * sin2;
+            [p[0] * r, p[1] * r, p[2] * r]
+        })
+        .collect();
+    base.with_positions(pos)
 }

@@ -1,0 +1,235 @@
+#!/usr/bin/env python3
+"""Isotropic remeshing peers and one grading of every output (ours included).
+
+  python bench/remesh/peer.py MESH --targets 1,2 [--ours ours.jsonl] [--save-dir DIR]
+
+Peers, at target edge length = p % of the bounding-box diagonal, 10 iterations, edges with a
+dihedral angle above 30 degrees kept as features:
+  pymeshlab   meshing_isotropic_explicit_remeshing(iterations=10, targetlen=PercentageValue(p),
+              featuredeg=30)
+  gpytoolbox  remesh_botsch(i=10, h=target, project=True, detect_feature_edges=True,
+              feature_dihedral_threshold=30)   (Botsch & Kobbelt 2004)
+Time: median of 3 runs (mesh setup excluded). `--ours` reads the JSON lines of the Rust bench
+(their `output` files are graded here like the peers' outputs).
+
+Grading (same code for every method): min angle, share of angles < 30 deg, share of valence-6
+interior vertices, Hausdorff distance to the input (pymeshlab get_hausdorff_distance, both
+directions, all vertices + 200k face samples, relative to the input's bbox diagonal), and
+sharp-edge preservation: of the input's sharp edges (> 30 deg), how many have both ends and
+midpoint within 1e-4 of the diagonal of the output's sharp edges. Prints one JSON line per
+method and target.
+"""
+import argparse
+import json
+import math
+import statistics
+import sys
+import time
+
+import numpy as np
+
+FEATURE_DEG = 30.0
+ITERS = 10
+
+
+def load(path):
+    import pymeshlab
+    ms = pymeshlab.MeshSet()
+    ms.load_new_mesh(path)
+    m = ms.current_mesh()
+    return np.asarray(m.vertex_matrix(), float), np.asarray(m.face_matrix(), np.int64)
+
+
+def diag(V):
+    return float(np.linalg.norm(V.max(0) - V.min(0)))
+
+
+def edges_with_faces(F):
+    E = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
+    fid = np.tile(np.arange(len(F)), 3)
+    Es = np.sort(E, 1)
+    order = np.lexsort((Es[:, 1], Es[:, 0]))
+    return Es[order], fid[order]
+
+
+def sharp_edges(V, F, deg=FEATURE_DEG):
+    Es, fid = edges_with_faces(F)
+    N = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
+    N /= np.maximum(np.linalg.norm(N, axis=1, keepdims=True), 1e-300)
+    same = np.all(Es[1:] == Es[:-1], axis=1)
+    i = np.nonzero(same)[0]
+    c = np.einsum("ij,ij->i", N[fid[i]], N[fid[i + 1]])
+    out = [Es[i[c < math.cos(math.radians(deg))]]]
+    once = np.ones(len(Es), bool)
+    once[1:] &= ~same
+    once[:-1] &= ~same
+    out.append(Es[once])  # boundary edges
+    return np.concatenate(out)
+
+
+def quality(V, F):
+    a, b, c = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
+
+    def ang(p, q, r):
+        u, w = q - p, r - p
+        return np.degrees(np.arctan2(np.linalg.norm(np.cross(u, w), axis=1), np.einsum("ij,ij->i", u, w)))
+
+    A = np.stack([ang(a, b, c), ang(b, c, a), ang(c, a, b)], 1)
+    Es, _ = edges_with_faces(F)
+    uE, cnt = np.unique(Es, axis=0, return_counts=True)
+    val = np.bincount(uE.ravel(), minlength=len(V))
+    bnd = np.zeros(len(V), bool)
+    bnd[uE[cnt == 1].ravel()] = True
+    used = np.zeros(len(V), bool)
+    used[F.ravel()] = True
+    inner = used & ~bnd
+    L = np.linalg.norm(V[uE[:, 0]] - V[uE[:, 1]], axis=1)
+    return {
+        "n_vertices": int(used.sum()), "n_faces": int(len(F)),
+        "min_angle_deg": float(A.min()), "max_angle_deg": float(A.max()),
+        "frac_angles_lt_30": float((A < 30).mean()),
+        "valence6_share": float((val[inner] == 6).mean()) if inner.any() else None,
+        "edge_mean": float(L.mean()), "edge_cv": float(L.std() / L.mean()),
+        "boundary_edges": int((cnt == 1).sum()), "nonmanifold_edges": int((cnt > 2).sum()),
+    }
+
+
+def hausdorff(VA, FA, VB, FB):
+    import pymeshlab
+    ms = pymeshlab.MeshSet()
+    ms.add_mesh(pymeshlab.Mesh(vertex_matrix=VA, face_matrix=FA.astype(np.int32)), "in")
+    ms.add_mesh(pymeshlab.Mesh(vertex_matrix=VB, face_matrix=FB.astype(np.int32)), "out")
+    kw = dict(samplevert=True, sampleedge=False, sampleface=True, samplenum=200000,
+              maxdist=pymeshlab.PercentageValue(100.0))
+    ab = ms.get_hausdorff_distance(sampledmesh=0, targetmesh=1, **kw)
+    ba = ms.get_hausdorff_distance(sampledmesh=1, targetmesh=0, **kw)
+    d = diag(VA)
+    return {"hausdorff_rel": max(ab["max"], ba["max"]) / d,
+            "mean_dist_rel": (ab["mean"] + ba["mean"]) / 2 / d}
+
+
+def seg_dist(P, A, B):
+    """Distance from each point of P to the nearest segment [A_i, B_i] (chunked brute force
+    over a scipy k-d tree of segment midpoints for candidates)."""
+    from scipy.spatial import cKDTree
+    mid = 0.5 * (A + B)
+    half = 0.5 * np.linalg.norm(B - A, axis=1).max()
+    tree = cKDTree(mid)
+    d0, _ = tree.query(P)
+    out = np.empty(len(P))
+    for i, p in enumerate(P):
+        cand = tree.query_ball_point(p, d0[i] + half + 1e-12)
+        a, b = A[cand], B[cand]
+        ab = b - a
+        t = np.clip(np.einsum("ij,ij->i", p - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300), 0, 1)
+        q = a + ab * t[:, None]
+        out[i] = np.linalg.norm(q - p, axis=1).min()
+    return out
+
+
+def features_kept(VA, FA, VB, FB):
+    EA, EB = sharp_edges(VA, FA), sharp_edges(VB, FB)
+    r = {"sharp_edges_in": int(len(EA)), "sharp_edges_out": int(len(EB))}
+    if len(EA) == 0 or len(EB) == 0:
+        r["sharp_edges_kept"] = 0
+        return r
+    tol = 1e-4 * diag(VA)
+    pts = np.concatenate([VA[EA[:, 0]], VA[EA[:, 1]], 0.5 * (VA[EA[:, 0]] + VA[EA[:, 1]])])
+    d = seg_dist(pts, VB[EB[:, 0]], VB[EB[:, 1]]).reshape(3, -1)
+    r["sharp_edges_kept"] = int((d.max(0) < tol).sum())
+    return r
+
+
+def grade(VA, FA, VB, FB):
+    r = quality(VB, FB)
+    r.update(hausdorff(VA, FA, VB, FB))
+    r.update(features_kept(VA, FA, VB, FB))
+    return r
+
+
+def timed(fn, setup=None, repeats=3):
+    ts, out = [], None
+    for _ in range(repeats):
+        state = setup() if setup else None
+        t = time.perf_counter()
+        out = fn(state) if setup else fn()
+        ts.append(time.perf_counter() - t)
+        if ts[-1] > 60:
+            break
+    return statistics.median(ts), out
+
+
+def run_pymeshlab(path, pct):
+    import pymeshlab
+
+    def setup():
+        ms = pymeshlab.MeshSet()
+        ms.load_new_mesh(path)
+        return ms
+
+    def go(ms):
+        ms.meshing_isotropic_explicit_remeshing(iterations=ITERS, targetlen=pymeshlab.PercentageValue(pct),
+                                                featuredeg=FEATURE_DEG)
+        ms.meshing_remove_unreferenced_vertices()
+        m = ms.current_mesh()
+        return np.asarray(m.vertex_matrix(), float), np.asarray(m.face_matrix(), np.int64)
+
+    return timed(go, setup)
+
+
+def run_gpytoolbox(V, F, h):
+    import gpytoolbox as gpy
+
+    def go():
+        Vo, Fo = gpy.remesh_botsch(V, F.astype(np.int32), i=ITERS, h=h, project=True,
+                                   detect_feature_edges=True, feature_dihedral_threshold=FEATURE_DEG)
+        return np.asarray(Vo, float), np.asarray(Fo, np.int64)
+
+    return timed(go)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("mesh")
+    ap.add_argument("--targets", default="1,2")
+    ap.add_argument("--ours", default=None)
+    ap.add_argument("--methods", default="pymeshlab,gpytoolbox")
+    args = ap.parse_args()
+    V, F = load(args.mesh)
+    d = diag(V)
+    targets = [float(t) for t in args.targets.split(",")]
+    methods = args.methods.split(",")
+    stem = args.mesh.rsplit("/", 1)[-1].rsplit(".", 1)[0]
+    ours = []
+    if args.ours:
+        for line in open(args.ours):
+            line = line.strip()
+            if line.startswith("{"):
+                ours.append(json.loads(line))
+    for pct in targets:
+        h = pct / 100 * d
+        rows = []
+        for o in ours:
+            if o["mesh"].rsplit("/", 1)[-1].rsplit(".", 1)[0] == stem and float(o["target_pct"]) == pct:
+                Vo, Fo = load(o["output"])
+                rows.append({"method": "crestflow", "time_s": o["time_pool_s"],
+                             "time_1thread_s": o["time_1thread_s"], **grade(V, F, Vo, Fo)})
+        if "pymeshlab" in methods:
+            try:
+                t, (Vo, Fo) = run_pymeshlab(args.mesh, pct)
+                rows.append({"method": "pymeshlab", "time_s": t, **grade(V, F, Vo, Fo)})
+            except Exception as e:  # report, keep going
+                rows.append({"method": "pymeshlab", "error": "%s: %s" % (type(e).__name__, e)})
+        if "gpytoolbox" in methods:
+            try:
+                t, (Vo, Fo) = run_gpytoolbox(V, F, h)
+                rows.append({"method": "gpytoolbox", "time_s": t, **grade(V, F, Vo, Fo)})
+            except Exception as e:
+                rows.append({"method": "gpytoolbox", "error": "%s: %s" % (type(e).__name__, e)})
+        for r in rows:
+            print(json.dumps({"mesh": stem, "target_pct": pct, "n_vertices_in": int(len(V)), **r}))
+            sys.stdout.flush()
+
+
+if __name__ == "__main__":
+    main()

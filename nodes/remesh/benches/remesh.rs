@@ -1,0 +1,110 @@
+//! Remeshing speed and output for the peer comparison (`bench/remesh/run.sh`).
+//!
+//!   cargo bench -p crestflow-nodes-remesh --bench remesh -- OUT_DIR MESH... [--targets 1,2]
+//!
+//! For each mesh and target (percent of the bounding-box diagonal): the median of 3 runs of
+//! `remesh.isotropic` (default parameters: 10 rounds, sharp edges > 30° kept) at 1 thread
+//! (`Par::Seq`) and on the rayon pool, the remeshed mesh written to OUT_DIR as OBJ, and one
+//! JSON line with the timings and the node's report.
+
+use std::time::Instant;
+
+use crestflow_flow::{Par, ReportValue};
+use crestflow_geom::io::{load_mesh, save_mesh_obj, LoadOptions};
+use crestflow_nodes_remesh::{isotropic, IsotropicParams};
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+fn main() {
+    let mut args: Vec<String> = std::env::args().skip(1).filter(|a| a != "--bench").collect();
+    let mut targets = vec![1.0, 2.0];
+    if let Some(i) = args.iter().position(|a| a == "--targets") {
+        if i + 1 < args.len() {
+            targets = args[i + 1]
+                .split(',')
+                .filter_map(|t| t.parse().ok())
+                .collect();
+            args.drain(i..i + 2);
+        }
+    }
+    if args.len() < 2 {
+        eprintln!("usage: remesh OUT_DIR MESH... [--targets 1,2]");
+        std::process::exit(2);
+    }
+    let out_dir = std::path::PathBuf::from(&args[0]);
+    if let Err(e) = std::fs::create_dir_all(&out_dir) {
+        eprintln!("cannot create {}: {e}", out_dir.display());
+        std::process::exit(1);
+    }
+    for path in &args[1..] {
+        let mesh = match load_mesh(path, &LoadOptions::default()) {
+            Ok(m) => m.mesh,
+            Err(e) => {
+                eprintln!("{e}");
+                std::process::exit(1);
+            }
+        };
+        let stem = std::path::Path::new(path)
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        for &pct in &targets {
+            let params = IsotropicParams {
+                target: pct / 100.0,
+                ..Default::default()
+            };
+            let mut times = Vec::new();
+            let mut out = None;
+            for par in [Par::Seq, Par::Rayon] {
+                let mut runs = Vec::new();
+                for _ in 0..3 {
+                    let t = Instant::now();
+                    let r = isotropic(&mesh, None, &params, par);
+                    runs.push(t.elapsed().as_secs_f64());
+                    match r {
+                        Ok(o) => out = Some(o),
+                        Err(e) => {
+                            eprintln!("{path}: {e}");
+                            std::process::exit(1);
+                        }
+                    }
+                }
+                times.push(median(runs));
+            }
+            let Some(out) = out else { continue };
+            let file = out_dir.join(format!("{stem}.crestflow_{pct}pct.obj"));
+            if let Err(e) = save_mesh_obj(&file, &out.mesh, None) {
+                eprintln!("{e}");
+                std::process::exit(1);
+            }
+            let report: Vec<String> = out
+                .report
+                .values
+                .iter()
+                .filter_map(|(k, v)| match v {
+                    ReportValue::Num(x) => Some(format!("\"{k}\": {x}")),
+                    ReportValue::Text(_) => None,
+                })
+                .collect();
+            println!(
+                "{{\"method\": \"crestflow\", \"mesh\": \"{path}\", \"target_pct\": {pct}, \
+                 \"time_1thread_s\": {:.6}, \"time_pool_s\": {:.6}, \
+                 \"threads\": {}, \"output\": \"{}\", {}}}",
+                times[0],
+                times[1],
+                rayon_threads(),
+                file.display(),
+                report.join(", ")
+            );
+        }
+    }
+}
+
+fn rayon_threads() -> usize {
+    std::thread::available_parallelism()
+        .map(|n| n.get())
+        .unwrap_or(1)
+}

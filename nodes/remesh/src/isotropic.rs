@@ -1,0 +1,691 @@
+//! `remesh.isotropic`: feature-constrained isotropic remeshing, thesis §5.1.1 after Botsch &
+//! Kobbelt 2004 ("A remeshing approach to multiresolution modeling"); the features that
+//! constrain it are the (scale-conforming, §4.3) feature curve network, sharp edges and
+//! boundaries.
+//!
+//! Each of `iterations` rounds, at target edge length L:
+//! 1. split every edge longer than 4/3 L at its midpoint (repeated until none is left);
+//! 2. collapse every edge shorter than 4/5 L (into its midpoint when both ends are alike)
+//!    unless that creates an edge longer than 4/3 L, breaks the link condition, or turns a
+//!    surviving triangle by more than 60°;
+//! 3. flip edges when that brings the valences of the four vertices closer to 6 (4 on the
+//!    boundary), in squared deviation;
+//! 4. tangential relaxation: every free vertex moves to the area-weighted centroid of its
+//!    incident triangles' centroids, projected onto its tangent plane;
+//! 5. projection onto the input surface (exact closest point through a [`Bvh`]);
+//!
+//! step 4 repeats `smoothing_steps` times per round, step 5 follows the last of them.
+//!
+//! Feature constraints (thesis §5.1.1, items 1–2): feature edges are never flipped; a feature
+//! vertex is only removed by collapsing along its own chain into a vertex of the same chain or
+//! a corner; corners (see [`crate::features`]) never move and are never removed; other feature
+//! vertices relax towards the midpoint of their two chain neighbours and are projected onto
+//! their chain (the polyline of input feature edges), so they slide along it only. Boundary
+//! edges are features, so boundaries are preserved.
+//!
+//! Termination: a fixed number of rounds, at most 64 split and 4 collapse sweeps per round,
+//! and a vertex cap. A target below 1/20 of the input's mean edge length is rejected.
+//! Determinism: every sweep visits edges in slot order; relaxation and projection compute new
+//! positions from old ones (Jacobi) with [`Par::map_collect`], so the output is bit for bit the
+//! same at any thread count.
+
+use serde::{Deserialize, Serialize};
+
+use crestflow_flow::{
+    check_range, Ctx, ErrorKind, Inputs, NodeError, NodeKind, Outputs, Par, ParamIssue, Port,
+    Report, Validate,
+};
+use crestflow_geom::halfedge::{self, HalfEdgeError, HalfEdgeMesh, NONE};
+use crestflow_geom::vec3::{self, V3};
+use crestflow_geom::{FeatureCurveNetwork, TriMesh};
+
+use crate::bvh::{closest_on_segment, Bvh};
+use crate::features::{build_chains, mark_features, prune_short_sharp_chains, FeatureError};
+
+/// Parameters of `remesh.isotropic`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct IsotropicParams {
+    /// Target edge length: a fraction of the input's bounding-box diagonal when `relative`
+    /// (default 0.01 = 1 %), else an absolute length. In (0, 1e12].
+    pub target: f64,
+    /// Whether `target` is relative to the bounding-box diagonal (default true).
+    pub relative: bool,
+    /// Rounds of split / collapse / flip / relax / project (default 10, range 0..=1000).
+    pub iterations: usize,
+    /// Keep edges whose dihedral angle exceeds `sharp_angle_deg` as features (default true).
+    pub sharp_edges: bool,
+    /// Angle between the two face normals above which an edge is sharp, in degrees (default
+    /// 30, range [1, 179]).
+    pub sharp_angle_deg: f64,
+    /// A feature vertex with two feature edges that turn by more than this (degrees) is a
+    /// corner and stays fixed (default 60, range [0, 180]).
+    pub corner_angle_deg: f64,
+    /// Refuse targets that would create more vertices than this (estimated from the area;
+    /// default 20 000 000).
+    pub max_vertices: usize,
+    /// Tangential relaxation sweeps per round, followed by one projection onto the input
+    /// (default 5, range 0..=100; 0 turns both off). More sweeps give rounder triangles.
+    pub smoothing_steps: usize,
+    /// Chains of sharp edges that end freely at both ends and are shorter than this many
+    /// target lengths are not kept (default 1, range [0, 1e6]; 0 keeps all). Boundaries and
+    /// curves from `curves` are always kept.
+    pub min_feature_length: f64,
+}
+
+impl Default for IsotropicParams {
+    fn default() -> Self {
+        IsotropicParams {
+            target: 0.01,
+            relative: true,
+            iterations: 10,
+            sharp_edges: true,
+            sharp_angle_deg: 30.0,
+            corner_angle_deg: 60.0,
+            max_vertices: 20_000_000,
+            smoothing_steps: 5,
+            min_feature_length: 1.0,
+        }
+    }
+}
+
+impl Validate for IsotropicParams {
+    fn validate(&self) -> Vec<ParamIssue> {
+        let mut v = Vec::new();
+        check_range(&mut v, "target", self.target, f64::MIN_POSITIVE, 1e12);
+        check_range(&mut v, "iterations", self.iterations, 0, 1000);
+        check_range(&mut v, "sharp_angle_deg", self.sharp_angle_deg, 1.0, 179.0);
+        check_range(&mut v, "corner_angle_deg", self.corner_angle_deg, 0.0, 180.0);
+        check_range(&mut v, "max_vertices", self.max_vertices, 4, 1_000_000_000);
+        check_range(&mut v, "smoothing_steps", self.smoothing_steps, 0, 100);
+        check_range(&mut v, "min_feature_length", self.min_feature_length, 0.0, 1e6);
+        v
+    }
+}
+
+/// Why remeshing could not run.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum RemeshError {
+    #[error("invalid parameters: {0}")]
+    Params(String),
+    #[error("cancelled")]
+    Cancelled,
+    #[error("the mesh has no faces ({vertices} vertices)")]
+    Empty { vertices: usize },
+    #[error("vertex {vertex} has a non-finite coordinate {position:?}")]
+    NonFinite { vertex: usize, position: V3 },
+    #[error("the mesh cannot be remeshed: {0}")]
+    Topology(#[from] HalfEdgeError),
+    #[error("feature curves: {0}")]
+    Features(#[from] FeatureError),
+    #[error(
+        "target edge length {target} is below 1/20 of the mesh's mean edge length {mean}: \
+         raise `target`"
+    )]
+    TargetTooSmall { target: f64, mean: f64 },
+    #[error(
+        "target edge length {target} would give about {estimate} vertices, more than \
+         max_vertices = {max}"
+    )]
+    TooManyVertices {
+        target: f64,
+        estimate: usize,
+        max: usize,
+    },
+}
+
+/// The remeshed surface and what happened.
+#[derive(Clone, Debug)]
+pub struct RemeshOutput {
+    pub mesh: TriMesh,
+    /// Counts and the absolute target (see [`IsotropicNode`] for the names).
+    pub report: Report,
+}
+
+/// The role of a working-mesh vertex.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Role {
+    Free,
+    /// Inside feature chain `id`: slides along it.
+    Chain(u32),
+    Corner,
+}
+
+/// Remeshes `mesh` (see the module docs).
+pub fn isotropic(
+    mesh: &TriMesh,
+    curves: Option<&FeatureCurveNetwork>,
+    params: &IsotropicParams,
+    par: Par,
+) -> Result<RemeshOutput, RemeshError> {
+    isotropic_with(mesh, curves, params, par, &mut || Ok(()))
+}
+
+struct State<'a> {
+    he: HalfEdgeMesh,
+    role: Vec<Role>,
+    /// Input face each vertex was last projected onto (projection hint).
+    hint: Vec<u32>,
+    bvh: &'a Bvh,
+    chains: &'a [Vec<V3>],
+    l: f64,
+    max_turn: f64,
+    splits: usize,
+    collapses: usize,
+    flips: usize,
+}
+
+fn isotropic_with(
+    mesh: &TriMesh,
+    curves: Option<&FeatureCurveNetwork>,
+    params: &IsotropicParams,
+    par: Par,
+    check: &mut dyn FnMut() -> Result<(), RemeshError>,
+) -> Result<RemeshOutput, RemeshError> {
+    let issues = params.validate();
+    if !issues.is_empty() {
+        let t: Vec<String> = issues
+            .iter()
+            .map(|i| format!("{}: {}", i.field, i.message))
+            .collect();
+        return Err(RemeshError::Params(t.join("; ")));
+    }
+    if mesh.n_faces() == 0 {
+        return Err(RemeshError::Empty {
+            vertices: mesh.n_vertices(),
+        }
+        );
+    }
+    if let Some((vertex, p)) = mesh
+        .positions
+        .iter()
+        .enumerate()
+        .find(|(_, p)| !p.iter().all(|c| c.is_finite()))
+    {
+        return Err(RemeshError::NonFinite {
+            vertex,
+            position: *p,
+        }
+        );
+    }
+    let he = HalfEdgeMesh::from_trimesh(mesh)?;
+    let diag = mesh.bbox_diagonal();
+    let l = if params.relative {
+        params.target * diag
+    } else {
+        params.target
+    };
+    let mean = mesh.mean_edge_length();
+    if !(l >= mean / 20.0) {
+        return Err(RemeshError::TargetTooSmall { target: l, mean });
+    }
+    // A regular triangulation with edge L has about A / (√3/2 · L²) vertices.
+    let estimate = mesh.total_area() / (0.75f64.sqrt() * l * l);
+    if estimate > params.max_vertices as f64 {
+        return Err(RemeshError::TooManyVertices {
+            target: l,
+            estimate: estimate as usize,
+            max: params.max_vertices,
+        }
+        );
+    }
+
+    let bvh = Bvh::new(mesh);
+    let sharp = params.sharp_edges.then_some(params.sharp_angle_deg);
+    let mut fe = mark_features(mesh, sharp, curves, &bvh)?;
+    let chains = build_chains(mesh, &fe, params.corner_angle_deg);
+    let chains = prune_short_sharp_chains(
+        mesh,
+        &mut fe,
+        chains,
+        params.min_feature_length * l,
+        params.corner_angle_deg,
+    );
+    let topo = mesh.topology();
+
+    let mut st = State {
+        he,
+        role: (0..mesh.n_vertices())
+            .map(|v| {
+                if chains.is_corner[v] {
+                    Role::Corner
+                } else if chains.vertex_chain[v] != u32::MAX {
+                    Role::Chain(chains.vertex_chain[v])
+                } else {
+                    Role::Free
+                }
+            })
+            .collect(),
+        hint: vec![u32::MAX; mesh.n_vertices()],
+        bvh: &bvh,
+        chains: &chains.points,
+        l,
+        max_turn: 60f64.to_radians(),
+        splits: 0,
+        collapses: 0,
+        flips: 0,
+    };
+    for (f, t) in mesh.triangles.iter().enumerate() {
+        for &v in t {
+            st.hint[v as usize] = f as u32;
+        }
+    }
+    for h in 0..st.he.n_halfedge_slots() as u32 {
+        if st.he.is_canonical(h) {
+            let (a, b) = (st.he.from(h), st.he.to(h));
+            if let Some(e) = topo.find_edge(a, b) {
+                let c = chains.edge_chain[e as usize];
+                if c != u32::MAX {
+                    st.he.set_tag(h, c);
+                }
+            }
+        }
+    }
+
+    for _ in 0..params.iterations {
+        check()?;
+        st.split_long(params.max_vertices)?;
+        check()?;
+        st.collapse_short();
+        st.equalize_valences();
+        check()?;
+        for step in 0..params.smoothing_steps {
+            // Free vertices return to the input surface after the last sweep only (chain
+            // vertices after every one, so that they keep sliding along their chain).
+            st.relax_and_project(par, step + 1 == params.smoothing_steps);
+        }
+    }
+
+    let tagged = (0..st.he.n_halfedge_slots() as u32)
+        .filter(|&h| st.he.is_halfedge_alive(h) && st.he.is_canonical(h) && st.he.tag(h) != NONE)
+        .count();
+    let (out, _) = st.he.to_trimesh();
+    let mut r = Report::new();
+    r.set("target_abs", l)
+        .set("target_rel", if diag > 0.0 { l / diag } else { 0.0 })
+        .set("vertices_in", mesh.n_vertices())
+        .set("vertices_out", out.n_vertices())
+        .set("faces_out", out.n_faces())
+        .set("feature_edges_in", fe.count())
+        .set("feature_edges_sharp", fe.sharp)
+        .set("feature_edges_pruned", fe.pruned)
+        .set("feature_edges_boundary", fe.boundary)
+        .set("feature_edges_from_curves", fe.from_curves)
+        .set("feature_segments_unjoined", fe.segments_unjoined)
+        .set("feature_edges_out", tagged)
+        .set("feature_chains", chains.points.len())
+        .set(
+            "feature_corners",
+            chains.is_corner.iter().filter(|&&c| c).count(),
+        )
+        .set("splits", st.splits)
+        .set("collapses", st.collapses)
+        .set("flips", st.flips);
+    Ok(RemeshOutput {
+        mesh: out,
+        report: r,
+    })
+}
+
+impl State<'_> {
+    fn len2(&self, a: u32, b: u32) -> f64 {
+        let d = vec3::sub(self.he.position(a), self.he.position(b));
+        vec3::dot(d, d)
+    }
+
+    fn split_long(&mut self, max_vertices: usize) -> Result<(), RemeshError> {
+        let hi2 = (4.0 / 3.0 * self.l).powi(2);
+        for _ in 0..64 {
+            let mut any = false;
+            let n = self.he.n_halfedge_slots() as u32;
+            for h in 0..n {
+                if !self.he.is_halfedge_alive(h) || !self.he.is_canonical(h) {
+                    continue;
+                }
+                let (a, b) = (self.he.from(h), self.he.to(h));
+                if self.len2(a, b) <= hi2 {
+                    continue;
+                }
+                if self.he.n_live_vertices() >= max_vertices {
+                    return Err(RemeshError::TooManyVertices {
+                        target: self.l,
+                        estimate: self.he.n_live_vertices(),
+                        max: max_vertices,
+                    });
+                }
+                let mid = vec3::lerp(self.he.position(a), self.he.position(b), 0.5);
+                let t = self.he.tag(h);
+                let m = self.he.split_edge(h, mid);
+                self.role.push(if t != NONE {
+                    Role::Chain(t)
+                } else {
+                    Role::Free
+                });
+                self.hint.push(self.hint[a as usize]);
+                self.splits += 1;
+                any = true;
+                debug_assert_eq!(m as usize + 1, self.role.len());
+            }
+            if !any {
+                break;
+            }
+        }
+        Ok(())
+    }
+
+    /// Whether vertex `a` may disappear into `b` along the edge of `h` (feature rules only).
+    fn removable_into(&self, h: u32, a: u32, b: u32) -> bool {
+        match self.role[a as usize] {
+            Role::Corner => false,
+            Role::Free => true,
+            Role::Chain(c) => {
+                self.he.tag(h) == c
+                    && matches!(self.role[b as usize], Role::Corner)
+                    || self.role[b as usize] == Role::Chain(c) && self.he.tag(h) == c
+            }
+        }
+    }
+
+    /// Where the merged vertex of collapsing `h` goes: the midpoint when both ends have the
+    /// same role (two free vertices, or two vertices inside the same chain), else the
+    /// target, which is the more constrained one.
+    fn merged_position(&self, h: u32) -> V3 {
+        let (a, b) = (self.he.from(h), self.he.to(h));
+        if self.role[a as usize] == self.role[b as usize] {
+            vec3::lerp(self.he.position(a), self.he.position(b), 0.5)
+        } else {
+            self.he.position(b)
+        }
+    }
+
+    /// Whether the triangles around `v` that do not contain `other` keep their orientation
+    /// (normal turn at most `max_turn`) and some area when `v` moves to `p`.
+    fn fan_ok(&self, v: u32, other: u32, p: V3) -> bool {
+        let cos_max = self.max_turn.cos();
+        for k in self.he.outgoing(v) {
+            let f = halfedge::face_of(k);
+            let t = self.he.face_vertices(f);
+            if t.contains(&other) {
+                continue;
+            }
+            let q = |u: u32| if u == v { p } else { self.he.position(u) };
+            let n_old = self.he.face_normal_raw(f);
+            let n_new = vec3::cross(vec3::sub(q(t[1]), q(t[0])), vec3::sub(q(t[2]), q(t[0])));
+            let (lo, ln) = (vec3::norm(n_old), vec3::norm(n_new));
+            if !(ln > 1e-12 * lo) || vec3::dot(n_old, n_new) < cos_max * lo * ln {
+                return false;
+            }
+        }
+        true
+    }
+
+    /// No edge longer than 4/3 L may appear at the merged vertex `p`. For a chain vertex only
+    /// the chain's own edges count: off-chain edges that grow are split again, while a chain
+    /// that keeps short edges would pin thin triangles along the feature.
+    fn lengths_ok(&self, v: u32, p: V3, chain_only: bool) -> bool {
+        let hi2 = (4.0 / 3.0 * self.l).powi(2);
+        for x in self.he.neighbors(v) {
+            if chain_only {
+                let e = self.he.find_edge(v, x);
+                if e == NONE || self.he.tag(e) == NONE {
+                    continue;
+                }
+            }
+            let d = vec3::sub(self.he.position(x), p);
+            if vec3::dot(d, d) > hi2 {
+                return false;
+            }
+        }
+        true
+    }
+
+    /// Whether collapsing `h` (origin into target) is allowed: feature rules, no long edges,
+    /// no two feature edges fused, topology and geometry.
+    fn collapse_allowed(&self, h: u32) -> bool {
+        let (a, b) = (self.he.from(h), self.he.to(h));
+        if !self.removable_into(h, a, b) {
+            return false;
+        }
+        // The two sides of each removed triangle fuse into one edge: never two features.
+        let g = self.he.opp(h);
+        for k in [h, g] {
+            if k != NONE
+                && self.he.tag(halfedge::next(k)) != NONE
+                && self.he.tag(halfedge::prev(k)) != NONE
+            {
+                return false;
+            }
+        }
+        let p = self.merged_position(h);
+        let chain = matches!(self.role[a as usize], Role::Chain(_));
+        self.lengths_ok(a, p, chain)
+            && self.lengths_ok(b, p, chain)
+            && self.he.collapse_topology_ok(h).is_ok()
+            && self.fan_ok(a, b, p)
+            && self.fan_ok(b, a, p)
+    }
+
+    fn collapse_short(&mut self) {
+        let lo2 = (4.0 / 5.0 * self.l).powi(2);
+        // A few sweeps per round: edges left short now are retried in the next round, after
+        // relaxation has moved their neighbours.
+        for _ in 0..4 {
+            let mut any = false;
+            let n = self.he.n_halfedge_slots() as u32;
+            for h in 0..n {
+                if !self.he.is_halfedge_alive(h) || !self.he.is_canonical(h) {
+                    continue;
+                }
+                let (a, b) = (self.he.from(h), self.he.to(h));
+                if self.len2(a, b) >= lo2 {
+                    continue;
+                }
+                let g = self.he.opp(h);
+                let ok_h = self.collapse_allowed(h);
+                let ok_g = g != NONE && self.collapse_allowed(g);
+                let pick = match (ok_h, ok_g) {
+                    (true, true) => {
+                        // Remove the vertex with fewer edges.
+                        if self.he.valence(b) < self.he.valence(a) {
+                            g
+                        } else {
+                            h
+                        }
+                    }
+                    (true, false) => h,
+                    (false, true) => g,
+                    (false, false) => continue,
+                };
+                let p = self.merged_position(pick);
+                let keep = self.he.to(pick);
+                self.he.collapse(pick);
+                self.he.set_position(keep, p);
+                self.collapses += 1;
+                any = true;
+            }
+            if !any {
+                break;
+            }
+        }
+    }
+
+    fn equalize_valences(&mut self) {
+        let n = self.he.n_halfedge_slots() as u32;
+        let cos_turn = self.max_turn.cos();
+        for h in 0..n {
+            if !self.he.is_halfedge_alive(h)
+                || !self.he.is_canonical(h)
+                || self.he.is_boundary_edge(h)
+                || self.he.tag(h) != NONE
+            {
+                continue;
+            }
+            let g = self.he.opp(h);
+            let (a, b) = (self.he.from(h), self.he.to(h));
+            let c = self.he.from(halfedge::prev(h));
+            let d = self.he.from(halfedge::prev(g));
+            let target = |v: u32| if self.he.is_boundary_vertex(v) { 4 } else { 6 };
+            let dev = |v: u32, delta: i64| {
+                let x = self.he.valence(v) as i64 + delta - target(v);
+                x * x
+            };
+            let before = dev(a, 0) + dev(b, 0) + dev(c, 0) + dev(d, 0);
+            let after = dev(a, -1) + dev(b, -1) + dev(c, 1) + dev(d, 1);
+            if after >= before {
+                continue;
+            }
+            // Keep the surface: no flip across a fold steeper than the collapse limit.
+            let n1 = self.he.face_normal_raw(halfedge::face_of(h));
+            let n2 = self.he.face_normal_raw(halfedge::face_of(g));
+            if vec3::dot(n1, n2) < cos_turn * vec3::norm(n1) * vec3::norm(n2) {
+                continue;
+            }
+            if self.he.flip_ok(h) {
+                self.he.flip(h);
+                self.flips += 1;
+            }
+        }
+    }
+
+    fn relax_and_project(&mut self, par: Par, project: bool) {
+        let nv = self.he.n_vertex_slots();
+        let he = &self.he;
+        // Area-weighted vertex normals.
+        let normal: Vec<V3> = par.map_collect(nv, |v| {
+            let v = v as u32;
+            if !he.is_vertex_alive(v) {
+                return [0.0; 3];
+            }
+            let mut n = [0.0; 3];
+            for k in he.outgoing(v) {
+                n = vec3::add(n, he.face_normal_raw(halfedge::face_of(k)));
+            }
+            vec3::normalize(n)
+        });
+        let role = &self.role;
+        let bvh = self.bvh;
+        let chains = self.chains;
+        let hint = &self.hint;
+        let moved: Vec<(V3, u32)> = par.map_collect(nv, |v| {
+            let v = v as u32;
+            let p = he.position(v);
+            if !he.is_vertex_alive(v) {
+                return (p, NONE);
+            }
+            match role[v as usize] {
+                Role::Corner => (p, hint[v as usize]),
+                Role::Chain(c) => {
+                    // Midpoint of the two chain neighbours, then back onto the chain.
+                    let mut s = [0.0; 3];
+                    let mut k = 0;
+                    for x in he.neighbors(v) {
+                        let e = he.find_edge(v, x);
+                        if e != NONE && he.tag(e) == c {
+                            s = vec3::add(s, he.position(x));
+                            k += 1;
+                        }
+                    }
+                    let q = if k == 2 { vec3::scale(s, 0.5) } else { p };
+                    (project_on_polyline(&chains[c as usize], q), hint[v as usize])
+                }
+                Role::Free => {
+                    // Centroid of the incident triangles' centroids weighted by their areas.
+                    let mut s = [0.0; 3];
+                    let mut w = 0.0;
+                    for k in he.outgoing(v) {
+                        let f = halfedge::face_of(k);
+                        let a = vec3::norm(he.face_normal_raw(f));
+                        let [x, y, z] = he.face_vertices(f).map(|u| he.position(u));
+                        s = vec3::add(s, vec3::scale(vec3::add(vec3::add(x, y), z), a / 3.0));
+                        w += a;
+                    }
+                    let q = if w > 0.0 {
+                        let u = vec3::sub(vec3::scale(s, 1.0 / w), p);
+                        let n = normal[v as usize];
+                        vec3::add(p, vec3::sub(u, vec3::scale(n, vec3::dot(n, u))))
+                    } else {
+                        p
+                    };
+                    if project {
+                        let hit = bvh.closest(q, hint[v as usize]);
+                        (hit.point, hit.face)
+                    } else {
+                        (q, hint[v as usize])
+                    }
+                }
+            }
+        });
+        for (v, (p, f)) in moved.into_iter().enumerate() {
+            if f != NONE {
+                self.he.set_position(v as u32, p);
+                self.hint[v] = f;
+            }
+        }
+    }
+}
+
+/// Closest point of a polyline to `p` (first segment wins ties).
+fn project_on_polyline(pts: &[V3], p: V3) -> V3 {
+    let mut best = (f64::INFINITY, p);
+    for w in pts.windows(2) {
+        let (q, _) = closest_on_segment(p, w[0], w[1]);
+        let d = vec3::sub(p, q);
+        let d2 = vec3::dot(d, d);
+        if d2 < best.0 {
+            best = (d2, q);
+        }
+    }
+    best.1
+}
+
+/// The `remesh.isotropic` node.
+pub struct IsotropicNode;
+
+impl NodeKind for IsotropicNode {
+    type Params = IsotropicParams;
+    const KIND: &'static str = "remesh.isotropic";
+    const VERSION: u32 = 1;
+    const DOC: &'static str = "Isotropic remeshing at a target edge length (Botsch & Kobbelt \
+        2004, thesis §5.1.1): splits > 4/3 L, collapses < 4/5 L, valence-improving flips, \
+        tangential relaxation and projection onto the input surface, for `iterations` rounds. \
+        Feature edges are kept: the optional feature curve network (snapped to mesh edges), \
+        sharp edges (dihedral > sharp_angle_deg) and boundaries; corners stay fixed, other \
+        feature vertices slide along their feature polyline, feature edges are never flipped \
+        and collapse only along themselves. `target` is a fraction of the bbox diagonal \
+        (relative: true) or absolute. Outputs the mesh and a Report (vertices_out, \
+        feature_edges_in/out, splits, collapses, flips, target_abs).";
+
+    fn inputs() -> Vec<Port> {
+        vec![
+            Port::of::<TriMesh>("mesh", "the surface to remesh (manifold, oriented)"),
+            Port::optional::<FeatureCurveNetwork>(
+                "curves",
+                "feature curves to keep (e.g. a scale-conforming network, thesis §4.3)",
+            ),
+        ]
+    }
+    fn outputs() -> Vec<Port> {
+        vec![
+            Port::of::<TriMesh>("mesh", "the remeshed surface"),
+            Port::of::<Report>("report", "counts: vertices, feature edges, operations"),
+        ]
+    }
+    fn run(params: &Self::Params, inputs: &Inputs, ctx: &Ctx) -> Result<Outputs, NodeError> {
+        let mesh = inputs.get::<TriMesh>("mesh")?;
+        let curves = inputs.opt::<FeatureCurveNetwork>("curves")?;
+        let mut check = || {
+            if ctx.cancel.is_cancelled() {
+                Err(RemeshError::Cancelled)
+            } else {
+                Ok(())
+            }
+        };
+        match isotropic_with(mesh, curves, params, ctx.par, &mut check) {
+            Ok(out) => Ok(Outputs::new()
+                .with("mesh", out.mesh)
+                .with("report", out.report)),
+            Err(RemeshError::Cancelled) => Err(NodeError::cancelled()),
+            Err(e) => Err(NodeError::from_source(ErrorKind::InvalidInput, e)),
+        }
+    }
+}

@@ -1,0 +1,21 @@
+//! crestflow node family `remesh`: feature-constrained isotropic remeshing (thesis §5.1.1,
+//! after Botsch & Kobbelt 2004, "A remeshing approach to multiresolution modeling"; the
+//! feature network that constrains it is the subject of thesis §4.3).
+//!
+//! - `remesh.isotropic` ([`isotropic`]): splits, collapses, valence-improving flips and
+//!   tangential relaxation with projection onto the input surface, keeping feature edges
+//!   (from a [`FeatureCurveNetwork`](crestflow_geom::FeatureCurveNetwork), sharp dihedral
+//!   angles and boundaries) in the output.
+
+use crestflow_flow::Registry;
+
+pub mod bvh;
+pub mod features;
+pub mod isotropic;
+
+pub use isotropic::{isotropic, IsotropicNode, IsotropicParams, RemeshError, RemeshOutput};
+
+/// Adds this family's node kinds to `registry`.
+pub fn register(registry: &mut Registry) {
+    registry.add::<IsotropicNode>();
+}

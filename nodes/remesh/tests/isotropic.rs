@@ -1,0 +1,397 @@
+//! `remesh.isotropic` on analytic shapes with known answers, on a real CAD mesh, and on bad
+//! input.
+
+use crestflow_flow::Par;
+use crestflow_geom::fcn::{CurveLabel, FcnVertex, FeatureCurve, SurfacePoint};
+use crestflow_geom::halfedge::HalfEdgeMesh;
+use crestflow_geom::mesh::corner_angle;
+use crestflow_geom::vec3::{self, V3};
+use crestflow_geom::{shapes, FeatureCurveNetwork, TriMesh};
+use crestflow_nodes_remesh::bvh::Bvh;
+use crestflow_nodes_remesh::{isotropic, IsotropicParams, RemeshError};
+
+fn abs(target: f64) -> IsotropicParams {
+    IsotropicParams {
+        target,
+        relative: false,
+        ..Default::default()
+    }
+}
+
+fn min_angle_deg(m: &TriMesh) -> f64 {
+    let mut lo = f64::INFINITY;
+    for f in 0..m.n_faces() {
+        let p = m.face_points(f);
+        for i in 0..3 {
+            let a = corner_angle(vec3::sub(p[(i + 1) % 3], p[i]), vec3::sub(p[(i + 2) % 3], p[i]));
+            lo = lo.min(a.to_degrees());
+        }
+    }
+    lo
+}
+
+fn assert_manifold(m: &TriMesh) {
+    let he = HalfEdgeMesh::from_trimesh(m).expect("output is a manifold mesh");
+    he.check().unwrap();
+}
+
+/// The surface of [0, 1]³, each side an n × n grid of squares split into two triangles,
+/// oriented outwards.
+fn cube(n: usize) -> TriMesh {
+    let mut pos: Vec<V3> = Vec::new();
+    let mut tri = Vec::new();
+    let mut index = std::collections::HashMap::new();
+    let mut id = |p: V3, pos: &mut Vec<V3>| -> u32 {
+        let key = p.map(|c| (c * n as f64).round() as i64);
+        *index.entry(key).or_insert_with(|| {
+            pos.push(p);
+            pos.len() as u32 - 1
+        })
+    };
+    // Each side: origin, two in-plane axes whose cross product points outwards.
+    let sides: [(V3, V3, V3); 6] = [
+        ([0.0, 0.0, 0.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0]), // z = 0, normal -z
+        ([0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]), // z = 1, normal +z
+        ([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]), // y = 0, normal -y
+        ([0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]), // y = 1, normal +y
+        ([0.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, 1.0, 0.0]), // x = 0, normal -x
+        ([1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]), // x = 1, normal +x
+    ];
+    for (o, u, w) in sides {
+        let at = |i: usize, j: usize| {
+            let (s, t) = (i as f64 / n as f64, j as f64 / n as f64);
+            vec3::add(o, vec3::add(vec3::scale(u, s), vec3::scale(w, t)))
+        };
+        for j in 0..n {
+            for i in 0..n {
+                let a = id(at(i, j), &mut pos);
+                let b = id(at(i + 1, j), &mut pos);
+                let c = id(at(i + 1, j + 1), &mut pos);
+                let d = id(at(i, j + 1), &mut pos);
+                tri.push([a, b, c]);
+                tri.push([a, c, d]);
+            }
+        }
+    }
+    TriMesh::new(pos, tri)
+}
+
+/// The unit square, n × n, lifted by a gentle bump (an open surface with a boundary).
+fn bumpy_square(n: usize) -> TriMesh {
+    let mut pos = Vec::new();
+    for j in 0..=n {
+        for i in 0..=n {
+            let (x, y) = (i as f64 / n as f64, j as f64 / n as f64);
+            // Exactly zero on the boundary.
+            let z = if i == 0 || j == 0 || i == n || j == n {
+                0.0
+            } else {
+                0.1 * (std::f64::consts::PI * x).sin() * (std::f64::consts::PI * y).sin()
+            };
+            pos.push([x, y, z]);
+        }
+    }
+    let id = |i: usize, j: usize| (j * (n + 1) + i) as u32;
+    let mut tri = Vec::new();
+    for j in 0..n {
+        for i in 0..n {
+            tri.push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
+            tri.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
+        }
+    }
+    TriMesh::new(pos, tri)
+}
+
+/// Symmetric Hausdorff distance, sampled: the vertices and face centroids of each mesh,
+/// measured exactly to the other surface.
+fn hausdorff(a: &TriMesh, b: &TriMesh) -> f64 {
+    let one = |x: &TriMesh, y: &TriMesh| {
+        let bvh = Bvh::new(y);
+        let mut pts = x.positions.clone();
+        for f in 0..x.n_faces() {
+            let [p, q, r] = x.face_points(f);
+            pts.push(vec3::scale(vec3::add(vec3::add(p, q), r), 1.0 / 3.0));
+        }
+        pts.iter()
+            .map(|&p| bvh.closest(p, u32::MAX).dist2.sqrt())
+            .fold(0.0, f64::max)
+    };
+    one(a, b).max(one(b, a))
+}
+
+#[test]
+fn sphere_reaches_the_target_length() {
+    let input = shapes::sphere(1.0, 4).unwrap();
+    let l = 0.15;
+    let out = isotropic(&input, None, &abs(l), Par::Rayon).unwrap();
+    let m = &out.mesh;
+    assert_manifold(m);
+    let euler =
+        m.n_vertices() as i64 - m.topology().edges.len() as i64 + m.n_faces() as i64;
+    assert_eq!(euler, 2);
+    let lens = m.edge_lengths();
+    let within = lens
+        .iter()
+        .filter(|&&x| x >= 0.8 * l && x <= 4.0 / 3.0 * l)
+        .count() as f64
+        / lens.len() as f64;
+    assert!(within > 0.95, "only {within} of the edges within [4/5, 4/3] L");
+    let mean = lens.iter().sum::<f64>() / lens.len() as f64;
+    assert!((mean / l - 1.0).abs() < 0.15, "mean edge {mean} vs target {l}");
+    let amin = min_angle_deg(m);
+    assert!(amin > 25.0, "min angle {amin}");
+    // Projected onto the input polyhedron, whose chords sag at most ~0.002 below the sphere.
+    for p in &m.positions {
+        let r = vec3::norm(*p);
+        assert!((r - 1.0).abs() < 2.5e-3, "vertex at radius {r}");
+    }
+    // The expected vertex count of a regular mesh: area / (√3/2 L²).
+    let expect = 4.0 * std::f64::consts::PI / (0.75f64.sqrt() * l * l);
+    let ratio = m.n_vertices() as f64 / expect;
+    assert!((0.8..1.25).contains(&ratio), "{} vertices, expected ~{expect}", m.n_vertices());
+}
+
+#[test]
+fn sequential_and_parallel_runs_agree_bit_for_bit() {
+    let input = shapes::sphere(1.0, 3).unwrap();
+    let a = isotropic(&input, None, &abs(0.2), Par::Seq).unwrap();
+    let b = isotropic(&input, None, &abs(0.2), Par::Rayon).unwrap();
+    assert_eq!(a.mesh, b.mesh);
+    assert_eq!(a.report, b.report);
+}
+
+fn on_crease(p: V3) -> bool {
+    p.iter()
+        .filter(|&&c| c.abs() < 1e-9 || (c - 1.0).abs() < 1e-9)
+        .count()
+        >= 2
+}
+
+#[test]
+fn cube_keeps_creases_and_corners() {
+    let input = cube(6);
+    let out = isotropic(&input, None, &abs(0.12), Par::Rayon).unwrap();
+    let m = &out.mesh;
+    assert_manifold(m);
+    assert_eq!(out.report.num("feature_corners"), Some(8.0));
+    // Every vertex on the surface of the cube.
+    for p in &m.positions {
+        assert!(
+            p.iter().any(|&c| c.abs() < 1e-9 || (c - 1.0).abs() < 1e-9),
+            "vertex {p:?} left the surface"
+        );
+    }
+    // The 8 corners, exactly.
+    for k in 0..8 {
+        let c = [(k & 1) as f64, ((k >> 1) & 1) as f64, ((k >> 2) & 1) as f64];
+        assert!(m.positions.contains(&c), "corner {c:?} lost");
+    }
+    // The sharp edges of the output (dihedral > 30°) run along the 12 creases, and cover them:
+    // their total length is 12.
+    let normals = m.face_normals();
+    let topo = m.topology();
+    let mut crease_len = 0.0;
+    for (e, f) in topo.edge_faces.iter().enumerate() {
+        let n = vec3::dot(normals[f[0] as usize], normals[f[1] as usize]);
+        if n < 30f64.to_radians().cos() {
+            let [a, b] = topo.edges[e];
+            let (pa, pb) = (m.positions[a as usize], m.positions[b as usize]);
+            assert!(on_crease(pa) && on_crease(pb), "sharp edge {pa:?}-{pb:?} off the creases");
+            crease_len += vec3::dist(pa, pb);
+        }
+    }
+    assert!((crease_len - 12.0).abs() < 1e-9, "crease length {crease_len}");
+    assert!(out.report.num("feature_edges_out").unwrap() >= 12.0 / (4.0 / 3.0 * 0.12));
+    let amin = min_angle_deg(m);
+    assert!(amin > 25.0, "min angle {amin}");
+}
+
+#[test]
+fn boundary_is_preserved() {
+    let input = bumpy_square(12);
+    let out = isotropic(&input, None, &abs(0.15), Par::Rayon).unwrap();
+    let m = &out.mesh;
+    assert_manifold(m);
+    let topo = m.topology();
+    let mut len = 0.0;
+    for (e, f) in topo.edge_faces.iter().enumerate() {
+        if f[1] == crestflow_geom::mesh::NO_FACE {
+            let [a, b] = topo.edges[e];
+            let (pa, pb) = (m.positions[a as usize], m.positions[b as usize]);
+            for p in [pa, pb] {
+                let on_side = p[..2].iter().any(|&c| c.abs() < 1e-12 || (c - 1.0).abs() < 1e-12);
+                assert!(on_side && p[2].abs() < 1e-12, "boundary vertex {p:?} off the square");
+            }
+            len += vec3::dist(pa, pb);
+        }
+    }
+    // The four sides (the bump is zero on the boundary), corners kept.
+    assert!((len - 4.0).abs() < 1e-9, "boundary length {len}");
+    for c in [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]] {
+        assert!(m.positions.contains(&c));
+    }
+    let area_in = input.total_area();
+    assert!((m.total_area() / area_in - 1.0).abs() < 0.01);
+}
+
+#[test]
+fn feature_curve_is_kept() {
+    // A flat square with a straight curve across at y = 0.5 (on grid vertices): without
+    // sharp edges, only the curve and the boundary constrain the result.
+    let input = bumpy_square(16);
+    let mut flat = input.clone();
+    for p in &mut flat.positions {
+        p[2] = 0.0;
+    }
+    let flat = TriMesh::new(flat.positions, flat.triangles);
+    let n = 16;
+    let vertices: Vec<FcnVertex> = (0..=n)
+        .map(|i| {
+            let v = (n / 2) * (n + 1) + i;
+            FcnVertex {
+                position: flat.positions[v],
+                location: SurfacePoint::Vertex(v as u32),
+                strength: 1.0,
+            }
+        })
+        .collect();
+    let net = FeatureCurveNetwork {
+        vertices,
+        curves: vec![FeatureCurve {
+            vertices: (0..=n as u32).collect(),
+            closed: false,
+            label: CurveLabel::Other,
+        }],
+    };
+    let params = IsotropicParams {
+        sharp_edges: false,
+        ..abs(0.11)
+    };
+    let out = isotropic(&flat, Some(&net), &params, Par::Rayon).unwrap();
+    assert_eq!(out.report.num("feature_edges_from_curves"), Some(16.0));
+    let m = &out.mesh;
+    let topo = m.topology();
+    let mut len = 0.0;
+    for [a, b] in &topo.edges {
+        let (pa, pb) = (m.positions[*a as usize], m.positions[*b as usize]);
+        if (pa[1] - 0.5).abs() < 1e-12 && (pb[1] - 0.5).abs() < 1e-12 {
+            len += vec3::dist(pa, pb);
+        }
+    }
+    assert!((len - 1.0).abs() < 1e-9, "edges along the curve add up to {len}");
+    // Without the curve, the line is not kept.
+    let free = isotropic(
+        &flat,
+        None,
+        &IsotropicParams {
+            sharp_edges: false,
+            ..abs(0.11)
+        },
+        Par::Rayon,
+    )
+    .unwrap();
+    let t = free.mesh.topology();
+    let len_free: f64 = t
+        .edges
+        .iter()
+        .map(|[a, b]| (free.mesh.positions[*a as usize], free.mesh.positions[*b as usize]))
+        .filter(|(pa, pb)| (pa[1] - 0.5).abs() < 1e-12 && (pb[1] - 0.5).abs() < 1e-12)
+        .map(|(pa, pb)| vec3::dist(pa, pb))
+        .sum();
+    assert!(len_free < 0.9, "{len_free}");
+}
+
+#[test]
+fn bad_input_gives_clear_errors() {
+    let p = vec![
+        [0.0; 3],
+        [1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [0.0, 0.0, 1.0],
+        [0.0, -1.0, 0.0],
+    ];
+    let nonmanifold = TriMesh::new(p.clone(), vec![[0, 1, 2], [1, 0, 3], [0, 1, 4]]);
+    let e = isotropic(&nonmanifold, None, &abs(0.5), Par::Seq).unwrap_err();
+    assert!(matches!(
+        e,
+        RemeshError::Topology(crestflow_geom::halfedge::HalfEdgeError::NonManifoldEdge {
+            a: 0,
+            b: 1,
+            ..
+        })
+    ));
+    assert!(e.to_string().contains("edge (0, 1)"), "{e}");
+
+    let sphere = shapes::sphere(1.0, 3).unwrap();
+    let mean = sphere.mean_edge_length();
+    let e = isotropic(&sphere, None, &abs(mean / 25.0), Par::Seq).unwrap_err();
+    assert!(matches!(e, RemeshError::TargetTooSmall { .. }), "{e}");
+
+    let mut nan = sphere.clone();
+    nan.positions[7][1] = f64::NAN;
+    let nan = TriMesh::new(nan.positions, nan.triangles);
+    assert!(matches!(
+        isotropic(&nan, None, &abs(0.2), Par::Seq).unwrap_err(),
+        RemeshError::NonFinite { vertex: 7, .. }
+    ));
+
+    let empty = TriMesh::new(p.clone(), vec![]);
+    assert!(matches!(
+        isotropic(&empty, None, &abs(0.2), Par::Seq).unwrap_err(),
+        RemeshError::Empty { vertices: 5 }
+    ));
+
+    let net = FeatureCurveNetwork {
+        vertices: vec![FcnVertex {
+            position: [0.0; 3],
+            location: SurfacePoint::Vertex(1_000_000),
+            strength: 1.0,
+        }],
+        curves: vec![],
+    };
+    let e = isotropic(&sphere, Some(&net), &abs(0.2), Par::Seq).unwrap_err();
+    assert!(e.to_string().contains("vertex 0 lies on mesh vertex 1000000"), "{e}");
+
+    let bad = IsotropicParams {
+        iterations: 5000,
+        ..abs(0.2)
+    };
+    assert!(matches!(
+        isotropic(&sphere, None, &bad, Par::Seq).unwrap_err(),
+        RemeshError::Params(_)
+    ));
+}
+
+#[test]
+fn fandisk_keeps_its_sharp_edges() {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data/meshes/cad/cgal_fandisk.off");
+    let Ok(loaded) = crestflow_geom::io::load_mesh(path, &Default::default()) else {
+        panic!("cannot read {path}");
+    };
+    let input = loaded.mesh;
+    let params = IsotropicParams {
+        target: 0.02,
+        ..Default::default()
+    };
+    let out = isotropic(&input, None, &params, Par::Rayon).unwrap();
+    assert_manifold(&out.mesh);
+    let diag = input.bbox_diagonal();
+    // Every output vertex is projected onto the input surface.
+    let bvh = Bvh::new(&input);
+    for p in &out.mesh.positions {
+        let d = bvh.closest(*p, u32::MAX).dist2.sqrt();
+        assert!(d < 1e-12 * diag, "vertex {p:?} is {d} off the input");
+    }
+    // What remains is the chord error of curved parts, a fraction of the target length
+    // (the benchmark compares it with other remeshers).
+    let l = out.report.num("target_abs").unwrap();
+    let h = hausdorff(&input, &out.mesh);
+    assert!(h < 0.25 * l, "Hausdorff {h} vs target {l}");
+    // Sharp edges: the 722 input sharp edges become chains of longer output edges.
+    assert_eq!(out.report.num("feature_edges_sharp"), Some(722.0));
+    let kept = out.report.num("feature_edges_out").unwrap();
+    assert!(kept > 0.0);
+    let amin = min_angle_deg(&out.mesh);
+    assert!(amin > 10.0, "min angle {amin}");
+}
+
