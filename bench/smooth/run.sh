@@ -30,7 +30,8 @@ bench "$OUT/cgal_bunny00_noisy.off" "$OUT/torus_irregular_${TORUS_N}_noisy.off" 
 
 "$PYTHON" - "$OUT/results.jsonl" <<'PY'
 import json, sys
-rows = [json.loads(l) for l in open(sys.argv[1]) if l.strip()]
+# libigl's OFF reader prints diagnostics on stdout: keep the JSON lines only.
+rows = [json.loads(l) for l in open(sys.argv[1]) if l.startswith("{")]
 peer = {(r["mesh"], r["method"]): r["s_per_iter"] for r in rows if r["impl"] == "peer"}
 pairs = {"uniform_explicit": "pymeshlab_uniform_10", "cotan_explicit": "pymeshlab_cotan_10",
          "cotan_implicit_1": "igl_implicit_1", "cotan_implicit_10": "igl_implicit_1",

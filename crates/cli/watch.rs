@@ -12,8 +12,12 @@
 //! - An atomic save (write a temporary file, rename it over the original) is an edit of the
 //!   original. Editor swap and backup files, the cache folder and every file the pipeline
 //!   writes are ignored, so a run never triggers itself.
-//! - A change that arrives during a run it makes stale cancels that run and starts it again;
-//!   the nodes that had finished are in the cache, so the restart resumes from them.
+//! - A change that arrives during a run marks the nodes it makes stale (changed signature,
+//!   reads the changed file, or downstream of such a node). The run is cancelled as soon as
+//!   every node still running is stale, so unaffected nodes finish and are cached, and then
+//!   starts again; finished nodes come from the cache. (The engine has one cancel token per
+//!   run, so a stale node that starts while unaffected ones still run keeps running until
+//!   then.)
 //!
 //! The pipelines are those of Gehre's thesis "3D Shape Analysis based on Feature Curve
 //! Networks" (§2.4–2.5 for the default one); this module only decides when to run them.

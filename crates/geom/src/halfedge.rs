@@ -83,7 +83,7 @@ pub fn next(h: u32) -> u32 {
 }
 #[inline]
 pub fn prev(h: u32) -> u32 {
-    if h % 3 == 0 {
+    if h.is_multiple_of(3) {
         h + 2
     } else {
         h - 1
@@ -201,9 +201,9 @@ impl HalfEdgeMesh {
     pub fn to_trimesh(&self) -> (TriMesh, Vec<u32>) {
         let mut map = vec![NONE; self.positions.len()];
         let mut positions = Vec::with_capacity(self.n_live_vertices);
-        for v in 0..self.positions.len() {
+        for (v, m) in map.iter_mut().enumerate() {
             if self.vertex_alive[v] && self.out[v] != NONE {
-                map[v] = positions.len() as u32;
+                *m = positions.len() as u32;
                 positions.push(self.positions[v]);
             }
         }
@@ -211,11 +211,7 @@ impl HalfEdgeMesh {
         for f in 0..self.face_alive.len() {
             if self.face_alive[f] {
                 let c = &self.corner[3 * f..3 * f + 3];
-                triangles.push([
-                    map[c[0] as usize],
-                    map[c[1] as usize],
-                    map[c[2] as usize],
-                ]);
+                triangles.push([map[c[0] as usize], map[c[1] as usize], map[c[2] as usize]]);
             }
         }
         (TriMesh::new(positions, triangles), map)
@@ -557,11 +553,7 @@ impl HalfEdgeMesh {
         let g = self.opp[h as usize];
         let (a, b) = (self.from(h), self.to(h));
         let c = self.from(prev(h));
-        let d = if g == NONE {
-            NONE
-        } else {
-            self.from(prev(g))
-        };
+        let d = if g == NONE { NONE } else { self.from(prev(g)) };
         if g != NONE && self.is_boundary_vertex(a) && self.is_boundary_vertex(b) {
             return Err(CollapseRejection::BoundaryPinch);
         }
@@ -588,7 +580,12 @@ impl HalfEdgeMesh {
     /// [`HalfEdgeMesh::collapse_topology_ok`] plus geometry: with the origin moved to `p`, no
     /// surviving triangle around it flips (its normal turns by more than `max_normal_turn`
     /// radians) or loses its area (below `1e-12` of the original's, or zero).
-    pub fn collapse_ok(&self, h: u32, p: V3, max_normal_turn: f64) -> Result<(), CollapseRejection> {
+    pub fn collapse_ok(
+        &self,
+        h: u32,
+        p: V3,
+        max_normal_turn: f64,
+    ) -> Result<(), CollapseRejection> {
         self.collapse_topology_ok(h)?;
         let a = self.from(h);
         let b = self.to(h);
@@ -599,11 +596,19 @@ impl HalfEdgeMesh {
             if x == b || y == b || z == b {
                 continue; // removed by the collapse
             }
-            let q = |v: u32| if v == a { p } else { self.positions[v as usize] };
+            let q = |v: u32| {
+                if v == a {
+                    p
+                } else {
+                    self.positions[v as usize]
+                }
+            };
             let n_old = self.face_normal_raw(f);
             let n_new = vec3::cross(vec3::sub(q(y), q(x)), vec3::sub(q(z), q(x)));
             let (lo, ln) = (vec3::norm(n_old), vec3::norm(n_new));
-            if !(ln > 1e-12 * lo.max(f64::MIN_POSITIVE)) || ln == 0.0 {
+            // Written so that NaN areas are rejected too.
+            let has_area = ln > 1e-12 * lo.max(f64::MIN_POSITIVE) && ln > 0.0;
+            if !has_area {
                 return Err(CollapseRejection::Geometry);
             }
             if lo > 0.0 && vec3::dot(n_old, n_new) < cos_max * lo * ln {
@@ -762,7 +767,9 @@ impl HalfEdgeMesh {
                 self.is_halfedge_alive(h) && self.from(h) == v && self.opp[h as usize] == NONE
             });
             if boundary_start && self.opp[o as usize] != NONE {
-                return Err(format!("boundary vertex {v}: out is not the boundary half-edge"));
+                return Err(format!(
+                    "boundary vertex {v}: out is not the boundary half-edge"
+                ));
             }
             let fan = self.outgoing(v).count();
             if fan != corners_at[v as usize] {
@@ -822,7 +829,11 @@ impl Iterator for Outgoing<'_> {
         }
         let h = self.cur;
         let o = self.mesh.opp[prev(h) as usize];
-        self.cur = if o == NONE || o == self.start { NONE } else { o };
+        self.cur = if o == NONE || o == self.start {
+            NONE
+        } else {
+            o
+        };
         Some(h)
     }
 }
@@ -880,7 +891,10 @@ mod tests {
         assert_eq!(he.euler_characteristic(), 1);
         for v in 0..g.n_vertices() as u32 {
             assert_eq!(he.valence(v), g.topology().neighbors(v).len(), "vertex {v}");
-            assert_eq!(he.is_boundary_vertex(v), g.topology().is_boundary_vertex[v as usize]);
+            assert_eq!(
+                he.is_boundary_vertex(v),
+                g.topology().is_boundary_vertex[v as usize]
+            );
             let mut nb = he.neighbors(v);
             nb.sort_unstable();
             assert_eq!(nb, g.topology().neighbors(v));
@@ -889,11 +903,21 @@ mod tests {
 
     #[test]
     fn rejects_bad_input() {
-        let p = vec![[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]];
+        let p = vec![
+            [0.0; 3],
+            [1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.0, 0.0, 1.0],
+            [0.0, -1.0, 0.0],
+        ];
         let three = TriMesh::new(p.clone(), vec![[0, 1, 2], [1, 0, 3], [0, 1, 4]]);
         assert_eq!(
             HalfEdgeMesh::from_trimesh(&three).unwrap_err(),
-            HalfEdgeError::NonManifoldEdge { a: 0, b: 1, faces: [0, 1] }
+            HalfEdgeError::NonManifoldEdge {
+                a: 0,
+                b: 1,
+                faces: [0, 1]
+            }
         );
         let flipped = TriMesh::new(p.clone(), vec![[0, 1, 2], [0, 1, 3]]);
         assert!(matches!(
@@ -903,7 +927,11 @@ mod tests {
         let bad = TriMesh::new(p.clone(), vec![[0, 1, 9]]);
         assert_eq!(
             HalfEdgeMesh::from_trimesh(&bad).unwrap_err(),
-            HalfEdgeError::IndexOutOfRange { face: 0, index: 9, n_vertices: 5 }
+            HalfEdgeError::IndexOutOfRange {
+                face: 0,
+                index: 9,
+                n_vertices: 5
+            }
         );
         let degenerate = TriMesh::new(p.clone(), vec![[0, 1, 2], [3, 3, 4]]);
         assert!(matches!(
@@ -938,7 +966,11 @@ mod tests {
         assert!(he.find_edge(1, 4) == NONE);
         // A boundary edge.
         let hb = he.find_edge(0, 1);
-        let hb = if he.is_boundary_edge(hb) { hb } else { he.opp(hb) };
+        let hb = if he.is_boundary_edge(hb) {
+            hb
+        } else {
+            he.opp(hb)
+        };
         assert!(he.is_boundary_edge(hb));
         let n = he.split_edge(hb, [0.25, 0.0, 0.0]);
         he.check().unwrap();
@@ -979,7 +1011,11 @@ mod tests {
         let g = grid(2);
         let he = HalfEdgeMesh::from_trimesh(&g).unwrap();
         let hb = he.find_edge(0, 1);
-        let hb = if he.is_boundary_edge(hb) { hb } else { he.opp(hb) };
+        let hb = if he.is_boundary_edge(hb) {
+            hb
+        } else {
+            he.opp(hb)
+        };
         assert!(!he.flip_ok(hb));
         // Diagonal 0–4 of the convex corner square: allowed.
         let d = he.find_edge(0, 4);
@@ -1069,7 +1105,14 @@ mod tests {
                 [0.0, 0.0, 1.0],
                 [0.0, 0.0, -1.0],
             ],
-            vec![[3, 0, 1], [3, 1, 2], [3, 2, 0], [4, 1, 0], [4, 2, 1], [4, 0, 2]],
+            vec![
+                [3, 0, 1],
+                [3, 1, 2],
+                [3, 2, 0],
+                [4, 1, 0],
+                [4, 2, 1],
+                [4, 0, 2],
+            ],
         );
         let he = HalfEdgeMesh::from_trimesh(&bip).unwrap();
         he.check().unwrap();

@@ -77,7 +77,7 @@ fn gics_of_a_latitude_circle_on_the_sphere() {
             worst = worst.max(rel);
         }
     }
-    assert!(worst < 0.08, "worst relative contour length error {worst}");
+    assert!(worst < 0.05, "worst relative contour length error {worst}");
 }
 
 #[test]

@@ -91,7 +91,6 @@ fn gics_matches_curves_across_one_pose() {
     );
     // Chance level is 1 / #curves; an isometric pose keeps most curves recognisable.
     assert!(hung > 0.5, "hungarian accuracy {hung}");
-    assert!(hung >= near - 1e-12 || near > 0.9);
 }
 
 #[test]

@@ -7,10 +7,13 @@
 use crestflow_flow::Registry;
 
 pub mod curvature_error;
+pub mod mesh_distance;
+pub mod mesh_quality;
 
 pub use curvature_error::{curvature_error, CurvatureErrorNode, CurvatureErrorParams};
 
 /// Adds this family's node kinds to `registry`.
 pub fn register(registry: &mut Registry) {
     registry.add::<CurvatureErrorNode>();
+    registry.add::<mesh_quality::MeshQualityNode>();
 }

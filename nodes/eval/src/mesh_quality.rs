@@ -160,10 +160,8 @@ pub fn mesh_quality(
     let n = lens.len().max(1) as f64;
     let mean = lens.iter().sum::<f64>() / n;
     let var = lens.iter().map(|l| (l - mean) * (l - mean)).sum::<f64>() / n;
-    r.set("edge_mean", mean).set(
-        "edge_cv",
-        if mean > 0.0 { var.sqrt() / mean } else { 0.0 },
-    );
+    r.set("edge_mean", mean)
+        .set("edge_cv", if mean > 0.0 { var.sqrt() / mean } else { 0.0 });
     if params.target > 0.0 {
         let unit = if params.relative {
             reference.unwrap_or(mesh).bbox_diagonal()
@@ -313,7 +311,10 @@ mod tests {
                 1.0 - vec3::norm(vec3::scale(vec3::add(vec3::add(x, y), z), 1.0 / 3.0))
             })
             .fold(0.0, f64::max);
-        assert!(h > 0.8 * sag_centre && h < 1.5 * sag_centre, "{h} vs {sag_centre}");
+        assert!(
+            h > 0.8 * sag_centre && h < 1.5 * sag_centre,
+            "{h} vs {sag_centre}"
+        );
         let icosa_valences = a.num("valence6_share").unwrap();
         // Level-2 icosphere: 162 vertices, the 12 icosahedron corners have valence 5.
         assert!((icosa_valences - 150.0 / 162.0).abs() < 1e-12);

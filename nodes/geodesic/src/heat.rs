@@ -46,6 +46,9 @@ use crestflow_nodes_spectral::sparse::{
 pub struct HeatParams {
     /// Source vertices (default empty). With a `curves` input, the curves are sources too.
     pub vertices: Vec<u32>,
+    /// With a `curves` input: the indices of the curves that are sources (default empty:
+    /// all of them).
+    pub curve_ids: Vec<u32>,
     /// `m` in the time step `t = m · h²` (default 1, the paper's choice; range 1e-3..=1e3).
     pub time_factor: f64,
 }
@@ -54,6 +57,7 @@ impl Default for HeatParams {
     fn default() -> Self {
         HeatParams {
             vertices: Vec::new(),
+            curve_ids: Vec::new(),
             time_factor: 1.0,
         }
     }
@@ -599,7 +603,8 @@ fn pin_rows(a: &mut CsrMatrix, pins: &[u32]) {
     }
 }
 
-/// Distance from the union of `vertices` and (when given) all curves of `curves`.
+/// Distance from the union of `params.vertices` and (when given) the curves of `curves`
+/// listed in `params.curve_ids` (all when empty).
 pub fn heat_distance(
     mesh: &TriMesh,
     curves: Option<&FeatureCurveNetwork>,
@@ -608,7 +613,12 @@ pub fn heat_distance(
 ) -> Result<DistanceField, HeatError> {
     let mut source = HeatSource::vertices(&params.vertices);
     if let Some(net) = curves {
-        for c in 0..net.curves.len() {
+        let ids: Vec<usize> = if params.curve_ids.is_empty() {
+            (0..net.curves.len()).collect()
+        } else {
+            params.curve_ids.iter().map(|&c| c as usize).collect()
+        };
+        for c in ids {
             source
                 .points
                 .extend(HeatSource::curve(net, c, mesh)?.points);

@@ -165,6 +165,58 @@ fn bad_inputs_are_typed_errors() {
         heat_distance(&mesh, None, &HeatParams::default(), Par::Seq).unwrap_err(),
         HeatError::NoSources
     );
+    let net = FeatureCurveNetwork {
+        vertices: vec![FcnVertex {
+            position: mesh.positions[0],
+            location: SurfacePoint::Vertex(0),
+            strength: 1.0,
+        }],
+        curves: vec![FeatureCurve {
+            vertices: vec![0],
+            closed: false,
+            label: CurveLabel::Other,
+        }],
+    };
+    let params = HeatParams {
+        curve_ids: vec![3],
+        ..Default::default()
+    };
+    assert_eq!(
+        heat_distance(&mesh, Some(&net), &params, Par::Seq).unwrap_err(),
+        HeatError::NoSuchCurve {
+            curve: 3,
+            n_curves: 1
+        }
+    );
+    let mut off = net.clone();
+    off.vertices[0].location = SurfacePoint::Edge {
+        a: 0,
+        b: n as u32,
+        t: 0.5,
+    };
+    assert_eq!(
+        heat_distance(&mesh, Some(&off), &HeatParams::default(), Par::Seq).unwrap_err(),
+        HeatError::CurveOffMesh {
+            curve: 0,
+            vertex: 0,
+            mesh_vertex: n as u32,
+            n_vertices: n
+        }
+    );
+    off.vertices[0].location = SurfacePoint::Free;
+    assert_eq!(
+        heat_distance(&mesh, Some(&off), &HeatParams::default(), Par::Seq).unwrap_err(),
+        HeatError::FreeCurveVertex {
+            curve: 0,
+            vertex: 0
+        }
+    );
+    // A one-point curve on a vertex is the same source as that vertex.
+    let from_curve = heat_distance(&mesh, Some(&net), &HeatParams::default(), Par::Seq).unwrap();
+    let from_vertex = solver
+        .distance(&HeatSource::vertices(&[0]), Par::Seq)
+        .unwrap();
+    assert_eq!(from_curve, from_vertex);
     assert!(matches!(
         HeatSolver::new(&TriMesh::new(vec![], vec![]), 1.0, Par::Seq).unwrap_err(),
         HeatError::NoTriangles

@@ -19,7 +19,10 @@ fn median(mut v: Vec<f64>) -> f64 {
 }
 
 fn main() {
-    let mut args: Vec<String> = std::env::args().skip(1).filter(|a| a != "--bench").collect();
+    let mut args: Vec<String> = std::env::args()
+        .skip(1)
+        .filter(|a| a != "--bench")
+        .collect();
     let mut targets = vec![1.0, 2.0];
     if let Some(i) = args.iter().position(|a| a == "--targets") {
         if i + 1 < args.len() {

@@ -22,9 +22,9 @@ impl Aabb {
         hi: [f64::NEG_INFINITY; 3],
     };
     fn grow(&mut self, p: V3) {
-        for k in 0..3 {
-            self.lo[k] = self.lo[k].min(p[k]);
-            self.hi[k] = self.hi[k].max(p[k]);
+        for ((lo, hi), c) in self.lo.iter_mut().zip(self.hi.iter_mut()).zip(p) {
+            *lo = lo.min(c);
+            *hi = hi.max(c);
         }
     }
     fn merge(&mut self, o: &Aabb) {
@@ -33,8 +33,8 @@ impl Aabb {
     }
     fn dist2(&self, p: V3) -> f64 {
         let mut d = 0.0;
-        for k in 0..3 {
-            let e = (self.lo[k] - p[k]).max(p[k] - self.hi[k]).max(0.0);
+        for ((lo, hi), c) in self.lo.iter().zip(&self.hi).zip(p) {
+            let e = (lo - c).max(c - hi).max(0.0);
             d += e * e;
         }
         d
@@ -248,7 +248,9 @@ mod tests {
         let bvh = Bvh::new(&m);
         let mut s = 12345u64;
         let mut rnd = || {
-            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             (s >> 11) as f64 / (1u64 << 53) as f64 * 3.0 - 1.5
         };
         for i in 0..300 {
@@ -257,7 +259,11 @@ mod tests {
                 .map(|f| bvh.on_face(f, p))
                 .min_by(|x, y| x.dist2.total_cmp(&y.dist2).then(x.face.cmp(&y.face)))
                 .unwrap();
-            let hint = if i % 2 == 0 { u32::MAX } else { (i * 7) as u32 % 1280 };
+            let hint = if i % 2 == 0 {
+                u32::MAX
+            } else {
+                (i * 7) as u32 % 1280
+            };
             let h = bvh.closest(p, hint);
             assert_eq!(h.dist2, brute.dist2, "query {i}");
         }

@@ -31,7 +31,9 @@ use crate::bvh::Bvh;
 pub enum FeatureError {
     #[error("curve {curve} references network vertex {index} but the network has {n} vertices")]
     CurveIndex { curve: usize, index: u32, n: usize },
-    #[error("network vertex {vertex} lies on mesh {element} {index}, but the mesh has {n} of them")]
+    #[error(
+        "network vertex {vertex} lies on mesh {element} {index}, but the mesh has {n} of them"
+    )]
     Location {
         vertex: usize,
         element: &'static str,
@@ -145,7 +147,8 @@ fn snap_vertices(
         let t = mesh.triangles[f as usize];
         let mut best = t[0];
         for &c in &t[1..] {
-            if vec3::dist(mesh.positions[c as usize], p) < vec3::dist(mesh.positions[best as usize], p)
+            if vec3::dist(mesh.positions[c as usize], p)
+                < vec3::dist(mesh.positions[best as usize], p)
             {
                 best = c;
             }
@@ -309,31 +312,32 @@ pub fn build_chains(mesh: &TriMesh, fe: &FeatureEdges, corner_angle_deg: f64) ->
     let mut vertex_chain = vec![u32::MAX; nv];
     let mut points = Vec::new();
     // Walk from every corner along each of its feature edges, then the loops that remain.
-    let mut walk = |start: u32, first: u32, edge_chain: &mut Vec<u32>, vertex_chain: &mut Vec<u32>| {
-        let id = points.len() as u32;
-        let mut pts = vec![p(start)];
-        let (mut v, mut e) = (start, first);
-        loop {
-            edge_chain[e as usize] = id;
-            let w = other(e, v);
-            pts.push(p(w));
-            if w == start || is_corner[w as usize] {
-                break;
+    let mut walk =
+        |start: u32, first: u32, edge_chain: &mut Vec<u32>, vertex_chain: &mut Vec<u32>| {
+            let id = points.len() as u32;
+            let mut pts = vec![p(start)];
+            let (mut v, mut e) = (start, first);
+            loop {
+                edge_chain[e as usize] = id;
+                let w = other(e, v);
+                pts.push(p(w));
+                if w == start || is_corner[w as usize] {
+                    break;
+                }
+                vertex_chain[w as usize] = id;
+                let es = &inc[w as usize];
+                let next = if es[0] == e { es[1] } else { es[0] };
+                if edge_chain[next as usize] != u32::MAX {
+                    break;
+                }
+                v = w;
+                e = next;
             }
-            vertex_chain[w as usize] = id;
-            let es = &inc[w as usize];
-            let next = if es[0] == e { es[1] } else { es[0] };
-            if edge_chain[next as usize] != u32::MAX {
-                break;
+            if !is_corner[start as usize] {
+                vertex_chain[start as usize] = id;
             }
-            v = w;
-            e = next;
-        }
-        if !is_corner[start as usize] {
-            vertex_chain[start as usize] = id;
-        }
-        points.push(pts);
-    };
+            points.push(pts);
+        };
     for v in 0..nv as u32 {
         if is_corner[v as usize] {
             for &e in &inc[v as usize].clone() {

@@ -95,10 +95,22 @@ impl Validate for IsotropicParams {
         check_range(&mut v, "target", self.target, f64::MIN_POSITIVE, 1e12);
         check_range(&mut v, "iterations", self.iterations, 0, 1000);
         check_range(&mut v, "sharp_angle_deg", self.sharp_angle_deg, 1.0, 179.0);
-        check_range(&mut v, "corner_angle_deg", self.corner_angle_deg, 0.0, 180.0);
+        check_range(
+            &mut v,
+            "corner_angle_deg",
+            self.corner_angle_deg,
+            0.0,
+            180.0,
+        );
         check_range(&mut v, "max_vertices", self.max_vertices, 4, 1_000_000_000);
         check_range(&mut v, "smoothing_steps", self.smoothing_steps, 0, 100);
-        check_range(&mut v, "min_feature_length", self.min_feature_length, 0.0, 1e6);
+        check_range(
+            &mut v,
+            "min_feature_length",
+            self.min_feature_length,
+            0.0,
+            1e6,
+        );
         v
     }
 }
@@ -193,8 +205,7 @@ fn isotropic_with(
     if mesh.n_faces() == 0 {
         return Err(RemeshError::Empty {
             vertices: mesh.n_vertices(),
-        }
-        );
+        });
     }
     if let Some((vertex, p)) = mesh
         .positions
@@ -205,8 +216,7 @@ fn isotropic_with(
         return Err(RemeshError::NonFinite {
             vertex,
             position: *p,
-        }
-        );
+        });
     }
     let he = HalfEdgeMesh::from_trimesh(mesh)?;
     let diag = mesh.bbox_diagonal();
@@ -226,8 +236,7 @@ fn isotropic_with(
             target: l,
             estimate: estimate as usize,
             max: params.max_vertices,
-        }
-        );
+        });
     }
 
     let bvh = Bvh::new(mesh);
@@ -379,8 +388,7 @@ impl State<'_> {
             Role::Corner => false,
             Role::Free => true,
             Role::Chain(c) => {
-                self.he.tag(h) == c
-                    && matches!(self.role[b as usize], Role::Corner)
+                self.he.tag(h) == c && matches!(self.role[b as usize], Role::Corner)
                     || self.role[b as usize] == Role::Chain(c) && self.he.tag(h) == c
             }
         }
@@ -586,7 +594,10 @@ impl State<'_> {
                         }
                     }
                     let q = if k == 2 { vec3::scale(s, 0.5) } else { p };
-                    (project_on_polyline(&chains[c as usize], q), hint[v as usize])
+                    (
+                        project_on_polyline(&chains[c as usize], q),
+                        hint[v as usize],
+                    )
                 }
                 Role::Free => {
                     // Centroid of the incident triangles' centroids weighted by their areas.

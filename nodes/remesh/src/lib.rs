@@ -7,6 +7,9 @@
 //!   (from a [`FeatureCurveNetwork`](crestflow_geom::FeatureCurveNetwork), sharp dihedral
 //!   angles and boundaries) in the output.
 
+// Comparisons are written `!(x > y)` where NaN must take the rejecting branch.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 use crestflow_flow::Registry;
 
 pub mod bvh;

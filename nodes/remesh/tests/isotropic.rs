@@ -23,7 +23,10 @@ fn min_angle_deg(m: &TriMesh) -> f64 {
     for f in 0..m.n_faces() {
         let p = m.face_points(f);
         for i in 0..3 {
-            let a = corner_angle(vec3::sub(p[(i + 1) % 3], p[i]), vec3::sub(p[(i + 2) % 3], p[i]));
+            let a = corner_angle(
+                vec3::sub(p[(i + 1) % 3], p[i]),
+                vec3::sub(p[(i + 2) % 3], p[i]),
+            );
             lo = lo.min(a.to_degrees());
         }
     }
@@ -126,8 +129,7 @@ fn sphere_reaches_the_target_length() {
     let out = isotropic(&input, None, &abs(l), Par::Rayon).unwrap();
     let m = &out.mesh;
     assert_manifold(m);
-    let euler =
-        m.n_vertices() as i64 - m.topology().edges.len() as i64 + m.n_faces() as i64;
+    let euler = m.n_vertices() as i64 - m.topology().edges.len() as i64 + m.n_faces() as i64;
     assert_eq!(euler, 2);
     let lens = m.edge_lengths();
     let within = lens
@@ -135,9 +137,15 @@ fn sphere_reaches_the_target_length() {
         .filter(|&&x| x >= 0.8 * l && x <= 4.0 / 3.0 * l)
         .count() as f64
         / lens.len() as f64;
-    assert!(within > 0.95, "only {within} of the edges within [4/5, 4/3] L");
+    assert!(
+        within > 0.95,
+        "only {within} of the edges within [4/5, 4/3] L"
+    );
     let mean = lens.iter().sum::<f64>() / lens.len() as f64;
-    assert!((mean / l - 1.0).abs() < 0.15, "mean edge {mean} vs target {l}");
+    assert!(
+        (mean / l - 1.0).abs() < 0.15,
+        "mean edge {mean} vs target {l}"
+    );
     let amin = min_angle_deg(m);
     assert!(amin > 25.0, "min angle {amin}");
     // Projected onto the input polyhedron, whose chords sag at most ~0.002 below the sphere.
@@ -148,7 +156,11 @@ fn sphere_reaches_the_target_length() {
     // The expected vertex count of a regular mesh: area / (√3/2 L²).
     let expect = 4.0 * std::f64::consts::PI / (0.75f64.sqrt() * l * l);
     let ratio = m.n_vertices() as f64 / expect;
-    assert!((0.8..1.25).contains(&ratio), "{} vertices, expected ~{expect}", m.n_vertices());
+    assert!(
+        (0.8..1.25).contains(&ratio),
+        "{} vertices, expected ~{expect}",
+        m.n_vertices()
+    );
 }
 
 #[test]
@@ -196,11 +208,17 @@ fn cube_keeps_creases_and_corners() {
         if n < 30f64.to_radians().cos() {
             let [a, b] = topo.edges[e];
             let (pa, pb) = (m.positions[a as usize], m.positions[b as usize]);
-            assert!(on_crease(pa) && on_crease(pb), "sharp edge {pa:?}-{pb:?} off the creases");
+            assert!(
+                on_crease(pa) && on_crease(pb),
+                "sharp edge {pa:?}-{pb:?} off the creases"
+            );
             crease_len += vec3::dist(pa, pb);
         }
     }
-    assert!((crease_len - 12.0).abs() < 1e-9, "crease length {crease_len}");
+    assert!(
+        (crease_len - 12.0).abs() < 1e-9,
+        "crease length {crease_len}"
+    );
     assert!(out.report.num("feature_edges_out").unwrap() >= 12.0 / (4.0 / 3.0 * 0.12));
     let amin = min_angle_deg(m);
     assert!(amin > 25.0, "min angle {amin}");
@@ -219,15 +237,25 @@ fn boundary_is_preserved() {
             let [a, b] = topo.edges[e];
             let (pa, pb) = (m.positions[a as usize], m.positions[b as usize]);
             for p in [pa, pb] {
-                let on_side = p[..2].iter().any(|&c| c.abs() < 1e-12 || (c - 1.0).abs() < 1e-12);
-                assert!(on_side && p[2].abs() < 1e-12, "boundary vertex {p:?} off the square");
+                let on_side = p[..2]
+                    .iter()
+                    .any(|&c| c.abs() < 1e-12 || (c - 1.0).abs() < 1e-12);
+                assert!(
+                    on_side && p[2].abs() < 1e-12,
+                    "boundary vertex {p:?} off the square"
+                );
             }
             len += vec3::dist(pa, pb);
         }
     }
     // The four sides (the bump is zero on the boundary), corners kept.
     assert!((len - 4.0).abs() < 1e-9, "boundary length {len}");
-    for c in [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]] {
+    for c in [
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [1.0, 1.0, 0.0],
+        [0.0, 1.0, 0.0],
+    ] {
         assert!(m.positions.contains(&c));
     }
     let area_in = input.total_area();
@@ -278,7 +306,10 @@ fn feature_curve_is_kept() {
             len += vec3::dist(pa, pb);
         }
     }
-    assert!((len - 1.0).abs() < 1e-9, "edges along the curve add up to {len}");
+    assert!(
+        (len - 1.0).abs() < 1e-9,
+        "edges along the curve add up to {len}"
+    );
     // Without the curve, the line is not kept.
     let free = isotropic(
         &flat,
@@ -294,7 +325,12 @@ fn feature_curve_is_kept() {
     let len_free: f64 = t
         .edges
         .iter()
-        .map(|[a, b]| (free.mesh.positions[*a as usize], free.mesh.positions[*b as usize]))
+        .map(|[a, b]| {
+            (
+                free.mesh.positions[*a as usize],
+                free.mesh.positions[*b as usize],
+            )
+        })
         .filter(|(pa, pb)| (pa[1] - 0.5).abs() < 1e-12 && (pb[1] - 0.5).abs() < 1e-12)
         .map(|(pa, pb)| vec3::dist(pa, pb))
         .sum();
@@ -350,7 +386,11 @@ fn bad_input_gives_clear_errors() {
         curves: vec![],
     };
     let e = isotropic(&sphere, Some(&net), &abs(0.2), Par::Seq).unwrap_err();
-    assert!(e.to_string().contains("vertex 0 lies on mesh vertex 1000000"), "{e}");
+    assert!(
+        e.to_string()
+            .contains("vertex 0 lies on mesh vertex 1000000"),
+        "{e}"
+    );
 
     let bad = IsotropicParams {
         iterations: 5000,
@@ -364,7 +404,10 @@ fn bad_input_gives_clear_errors() {
 
 #[test]
 fn fandisk_keeps_its_sharp_edges() {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data/meshes/cad/cgal_fandisk.off");
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../../shared/data/meshes/cad/cgal_fandisk.off"
+    );
     let Ok(loaded) = crestflow_geom::io::load_mesh(path, &Default::default()) else {
         panic!("cannot read {path}");
     };
@@ -394,4 +437,3 @@ fn fandisk_keeps_its_sharp_edges() {
     let amin = min_angle_deg(&out.mesh);
     assert!(amin > 10.0, "min angle {amin}");
 }
-

@@ -1,10 +1,10 @@
 //! Re-assembly of the cotangent Laplacian and lumped mass on the moving mesh (thesis §2.3).
 //!
-//! The first operator comes from `crestflow_nodes_spectral::sparse::laplacian_and_mass`, which
-//! also fixes the sparsity pattern (it depends on the triangles only). Smoothing rebuilds the
-//! operator at every iteration on new positions: instead of assembling from triplets (a sort
-//! of 12 entries per face), the values are written straight into the fixed pattern through
-//! precomputed slots. The per-face terms follow the spectral crate's definition to the bit
+//! The operator is the one of `crestflow_nodes_spectral::sparse::laplacian_and_mass`, whose
+//! sparsity pattern depends on the triangles only. Smoothing rebuilds the operator at every
+//! iteration on new positions: instead of assembling from triplets (a sort of 12 entries per
+//! face), the pattern is built once from the mesh's edges and the values are written straight
+//! into it through precomputed slots. The per-face terms follow the spectral crate's definition to the bit
 //! (intrinsic mollification of the edge lengths, Kahan's Heron formula, triangles with a
 //! cotangent beyond `COT_CLAMP` left out, barycentric or mixed Voronoi masses) and the sums
 //! run in the same face and corner order, so the result equals `laplacian_and_mass` exactly;
@@ -14,7 +14,7 @@ use crestflow_flow::Par;
 use crestflow_geom::vec3::V3;
 use crestflow_geom::TriMesh;
 use crestflow_nodes_spectral::sparse::{
-    laplacian_and_mass, CsrMatrix, LaplacianOptions, MassKind, OperatorError, COT_CLAMP,
+    CsrMatrix, LaplacianOptions, MassKind, OperatorError, SparseError, COT_CLAMP,
 };
 
 /// Writes the cotangent stiffness and the lumped mass of new positions into a fixed pattern.
@@ -33,21 +33,19 @@ fn lengths(x: &[V3], t: [u32; 3]) -> [f64; 3] {
 }
 
 /// The length δ added to every edge (intrinsic mollification, Sharp & Crane 2020).
-fn mollify_delta(x: &[V3], tris: &[[u32; 3]], mollify: f64) -> f64 {
+fn mollify_delta(lens: &[[f64; 3]], mollify: f64) -> f64 {
     if mollify == 0.0 {
         return 0.0;
     }
     let mut sum = 0.0;
     let mut count = 0usize;
-    for &t in tris {
-        let l = lengths(x, t);
+    for l in lens {
         sum += l[0] + l[1] + l[2];
         count += 3;
     }
     let eps = mollify * sum / count.max(1) as f64;
     let mut delta: f64 = 0.0;
-    for &t in tris {
-        let l = lengths(x, t);
+    for l in lens {
         for i in 0..3 {
             let slack = l[(i + 1) % 3] + l[(i + 2) % 3] - l[i];
             delta = delta.max(eps - slack);
@@ -100,8 +98,9 @@ fn face_terms(l: [f64; 3], mass: MassKind) -> ([f64; 3], [f64; 3]) {
 }
 
 impl CotanAssembler {
-    /// The operator of `mesh` (validated by the spectral crate) and an assembler for later
-    /// positions.
+    /// The operator of `mesh` and an assembler for later positions. The pattern is the one
+    /// `laplacian_and_mass` produces: every edge and the diagonal of every vertex with a face.
+    /// The mesh must have been validated (indices in range, no repeated corner, finite).
     pub fn new(
         mesh: &TriMesh,
         mass: MassKind,
@@ -111,7 +110,29 @@ impl CotanAssembler {
             mass,
             ..LaplacianOptions::default()
         };
-        let (l, m) = laplacian_and_mass(mesh, &opts, par)?;
+        let n = mesh.n_vertices();
+        let topo = mesh.topology();
+        let mut row_ptr = Vec::with_capacity(n + 1);
+        row_ptr.push(0usize);
+        let mut col_idx = Vec::with_capacity(2 * topo.edges.len() + n);
+        for v in 0..n as u32 {
+            let nb = topo.neighbors(v);
+            let has_faces = !topo.vertex_faces(v).is_empty();
+            let mut diag_done = !has_faces;
+            for &u in nb {
+                if !diag_done && u > v {
+                    col_idx.push(v as usize);
+                    diag_done = true;
+                }
+                col_idx.push(u as usize);
+            }
+            if !diag_done {
+                col_idx.push(v as usize);
+            }
+            row_ptr.push(col_idx.len());
+        }
+        let nnz = col_idx.len();
+        let mut l = CsrMatrix::from_raw(n, n, row_ptr, col_idx, vec![0.0; nnz])?;
         let (rp, ci) = (l.row_ptr(), l.col_idx());
         let slot = |r: u32, c: u32| -> Result<usize, OperatorError> {
             let (s, e) = (rp[r as usize], rp[r as usize + 1]);
@@ -119,9 +140,9 @@ impl CotanAssembler {
                 .binary_search(&(c as usize))
                 .map(|k| s + k)
                 .map_err(|_| {
-                    OperatorError::Sparse(crestflow_nodes_spectral::sparse::SparseError::Malformed(
-                        format!("entry ({r}, {c}) missing from the Laplacian's pattern"),
-                    ))
+                    OperatorError::Sparse(SparseError::Malformed(format!(
+                        "entry ({r}, {c}) missing from the Laplacian's pattern"
+                    )))
                 })
         };
         let mut slots = Vec::with_capacity(mesh.n_faces());
@@ -136,7 +157,10 @@ impl CotanAssembler {
             }
             slots.push(s);
         }
-        Ok((CotanAssembler { opts, slots }, l, m))
+        let asm = CotanAssembler { opts, slots };
+        let mut m = vec![0.0; n];
+        asm.assemble(&mesh.triangles, &mesh.positions, &mut l, &mut m, par);
+        Ok((asm, l, m))
     }
 
     /// Overwrites `l`'s values and `mass` with the operator of positions `x` (same triangles).
@@ -148,10 +172,11 @@ impl CotanAssembler {
         mass: &mut [f64],
         par: Par,
     ) {
-        let delta = mollify_delta(x, tris, self.opts.mollify);
+        let lens = par.map_collect(tris.len(), |f| lengths(x, tris[f]));
+        let delta = mollify_delta(&lens, self.opts.mollify);
         let kind = self.opts.mass;
         let terms = par.map_collect(tris.len(), |f| {
-            let l = lengths(x, tris[f]);
+            let l = lens[f];
             face_terms([l[0] + delta, l[1] + delta, l[2] + delta], kind)
         });
         let vals = l.values_mut();
@@ -177,11 +202,16 @@ impl CotanAssembler {
 mod tests {
     use super::*;
     use crestflow_geom::shapes::ellipsoid;
+    use crestflow_nodes_spectral::sparse::laplacian_and_mass;
 
     #[test]
     fn equals_the_spectral_operator_bit_for_bit() {
         let base = ellipsoid(1.0, 0.7, 0.4, 3, 0.4, 2).unwrap();
         let (asm, mut l, mut m) = CotanAssembler::new(&base, MassKind::Voronoi, Par::Seq).unwrap();
+        // The pattern built from the edges and the first values match too.
+        let (l0, m0) = laplacian_and_mass(&base, &LaplacianOptions::default(), Par::Seq).unwrap();
+        assert_eq!(l, l0);
+        assert_eq!(m, m0);
         // New positions, one triangle squashed flat so that mollification kicks in.
         let mut x: Vec<V3> = base
             .positions

@@ -65,6 +65,13 @@ impl Validate for OrbitParams {
         check_range(&mut v, "min_support", self.min_support, 0.0, 1e9);
         check_range(
             &mut v,
+            "min_relative_support",
+            self.min_relative_support,
+            0.0,
+            1.0,
+        );
+        check_range(
+            &mut v,
             "translation_tol",
             self.translation_tol,
             1e-9,

@@ -11,19 +11,21 @@ use crestflow_nodes_symmetry::{
 
 const H: f64 = 0.1;
 
-/// Two curves with no symmetry of their own (non-planar spiral arc and a bent wiggle).
+/// Two curves with no symmetry of their own and no long self-similar stretch (a spiral whose
+/// radius wobbles, so that it does not match itself after a slide, and a bent wiggle), both
+/// far from planar: a planar curve is congruent to its own mirror image by a rotation.
 fn template() -> Vec<Vec<V3>> {
     let a: Vec<V3> = (0..=160)
         .map(|i| {
             let s = i as f64 * 0.025;
-            let r = 1.0 + 0.4 * s;
-            [r * s.cos(), r * s.sin(), 0.3 * (2.0 * s).sin()]
+            let r = 1.0 + 0.4 * s + 0.25 * (3.0 * s).sin();
+            [r * s.cos(), r * s.sin(), 0.9 * (2.0 * s).sin()]
         })
         .collect();
     let b: Vec<V3> = (0..=120)
         .map(|i| {
             let s = i as f64 * 0.03;
-            [0.5 + s, -1.5 + 0.4 * (3.0 * s).sin(), 0.2 * s * s]
+            [0.5 + s, -1.5 + 0.4 * (3.0 * s).sin(), 0.5 * (2.0 * s + 0.7).cos()]
         })
         .collect();
     vec![a, b]

@@ -1,0 +1,49 @@
+#!/usr/bin/env bash
+# Isotropic remeshing against pymeshlab and gpytoolbox on the same meshes in the same run, at
+# 1 % and 2 % of the bounding-box diagonal (10 rounds, edges sharper than 30° kept). Run from
+# the repository root:
+#
+#   python3 -m venv ../venv-peers && ../venv-peers/bin/pip install numpy scipy pymeshlab gpytoolbox
+#   PYTHON=../venv-peers/bin/python bench/remesh/run.sh
+#
+# The Rust bench (release) remeshes and writes its outputs; bench/remesh/peer.py runs the peers
+# and grades every output with the same code (min angle, valence-6 share, pymeshlab Hausdorff,
+# sharp edges kept). Prints the JSON lines, then a table with the time ratios.
+set -euo pipefail
+
+PYTHON=${PYTHON:-python3}
+OUT=${OUT:-target/bench-remesh}
+TARGETS=${TARGETS:-1,2}
+MESHES=${MESHES:-"../shared/data/meshes/cad/cgal_fandisk_large.off ../shared/data/meshes/organic/cgal_bunny00.off"}
+mkdir -p "$OUT"
+OUT=$(realpath "$OUT")  # cargo bench runs in the crate folder: pass absolute paths
+ABS=()
+for m in $MESHES; do ABS+=("$(realpath "$m")"); done
+
+cargo bench -q -p crestflow-nodes-remesh --bench remesh -- "$OUT" "${ABS[@]}" --targets "$TARGETS" \
+    | tee "$OUT/ours.jsonl"
+: > "$OUT/results.jsonl"
+for m in "${ABS[@]}"; do
+    "$PYTHON" bench/remesh/peer.py "$m" --targets "$TARGETS" --ours "$OUT/ours.jsonl" \
+        | tee -a "$OUT/results.jsonl"
+done
+
+"$PYTHON" - "$OUT/results.jsonl" <<'PY'
+import json, sys
+rows = [json.loads(l) for l in open(sys.argv[1]) if l.strip()]
+print()
+print("| mesh | target | method | time s | fastest peer / this | min angle | angles < 30° | valence 6 | Hausdorff (diag) | sharp edges kept / in | V out |")
+print("|---|---|---|---|---|---|---|---|---|---|---|")
+for key in sorted({(r["mesh"], r["target_pct"]) for r in rows}):
+    group = [r for r in rows if (r["mesh"], r["target_pct"]) == key and "time_s" in r]
+    peers = [r["time_s"] for r in group if r["method"] != "crestflow"]
+    fastest = min(peers) if peers else float("nan")
+    for r in group:
+        print("| %s | %g %% | %s | %.3f | %.1f× | %.2f° | %.4f | %.3f | %.5f | %d / %d | %d |" % (
+            r["mesh"], r["target_pct"], r["method"], r["time_s"], fastest / r["time_s"],
+            r["min_angle_deg"], r["frac_angles_lt_30"], r["valence6_share"] or 0,
+            r["hausdorff_rel"], r["sharp_edges_kept"], r["sharp_edges_in"], r["n_vertices"]))
+    for r in rows:
+        if (r["mesh"], r["target_pct"]) == key and "error" in r:
+            print("| %s | %g %% | %s | failed: %s |" % (r["mesh"], r["target_pct"], r["method"], r["error"]))
+PY

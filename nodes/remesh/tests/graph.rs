@@ -1,0 +1,55 @@
+//! `graphs/remesh.ron` runs as shipped (with the families it uses registered) on the fandisk:
+//! ridges constrain the remeshing, and the quality report has the figures the issue asks for.
+
+use std::path::PathBuf;
+
+use crestflow_flow::{load_file, run, Registry, RunOptions};
+
+#[test]
+fn remesh_graph_runs_on_the_fandisk() {
+    let mut reg = Registry::new();
+    crestflow_nodes_io::register(&mut reg);
+    crestflow_nodes_curvature::register(&mut reg);
+    crestflow_nodes_ridges::register(&mut reg);
+    crestflow_nodes_render::register(&mut reg);
+    crestflow_nodes_eval::register(&mut reg);
+    crestflow_nodes_remesh::register(&mut reg);
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let graph = root.join("graphs/remesh.ron");
+    let out = std::env::temp_dir().join(format!("crestflow-remesh-graph-{}", std::process::id()));
+    let plan = load_file(
+        &graph,
+        &reg,
+        &[
+            ("out".to_string(), out.display().to_string()),
+            ("scale".to_string(), "0.02".to_string()),
+        ],
+    )
+    .unwrap_or_else(|e| panic!("graph does not load: {e:?}"));
+    let opts = RunOptions {
+        use_cache: false,
+        cache_dir: Some(out.join("cache")),
+        ..Default::default()
+    };
+    run(&plan, &opts).unwrap_or_else(|e| panic!("graph does not run: {e:?}"));
+    let read = |name: &str| -> serde_json::Value {
+        let text = std::fs::read_to_string(out.join(name)).expect("report written");
+        serde_json::from_str(&text).expect("report is JSON")
+    };
+    let q = read("quality.json");
+    let r = read("remesh.json");
+    eprintln!("{q}\n{r}");
+    assert!(
+        r["feature_edges_from_curves"].as_f64().unwrap() > 0.0,
+        "{r}"
+    );
+    assert!(r["feature_edges_out"].as_f64().unwrap() > 0.0, "{r}");
+    let h = q["hausdorff_rel"].as_f64().unwrap();
+    // Chord error at 2 % of the diagonal stays a fraction of the target length.
+    assert!(h > 0.0 && h < 0.25 * 0.02, "{q}");
+    assert!(q["min_angle_deg"].as_f64().unwrap() > 0.0);
+    assert!(q["valence6_share"].as_f64().unwrap() > 0.5, "{q}");
+    assert!(out.join("render.png").exists());
+    assert!(out.join("mesh.ply").exists());
+    let _ = std::fs::remove_dir_all(&out);
+}
