@@ -17,5 +17,6 @@ pub fn registry() -> Registry {
     crestflow_nodes_render::register(&mut reg);
     crestflow_nodes_eval::register(&mut reg);
     crestflow_nodes_shapes::register(&mut reg);
+    crestflow_nodes_smooth::register(&mut reg);
     reg
 }

@@ -217,6 +217,67 @@ impl HalfEdgeMesh {
         (TriMesh::new(positions, triangles), map)
     }
 
+    /// Garbage collection in place: drops deleted faces and vertices (and isolated ones),
+    /// keeping the order of the others and all tags. Returns, for each old vertex, its new
+    /// index (`NONE` when dropped).
+    pub fn compact(&mut self) -> Vec<u32> {
+        let nv = self.positions.len();
+        let mut vmap = vec![NONE; nv];
+        let mut positions = Vec::with_capacity(self.n_live_vertices);
+        for (v, m) in vmap.iter_mut().enumerate() {
+            if self.vertex_alive[v] && self.out[v] != NONE {
+                *m = positions.len() as u32;
+                positions.push(self.positions[v]);
+            }
+        }
+        let mut fmap = vec![NONE; self.face_alive.len()];
+        let mut nf = 0u32;
+        for (f, m) in fmap.iter_mut().enumerate() {
+            if self.face_alive[f] {
+                *m = nf;
+                nf += 1;
+            }
+        }
+        let map_h = |h: u32| {
+            if h == NONE {
+                NONE
+            } else {
+                3 * fmap[face_of(h) as usize] + h % 3
+            }
+        };
+        let mut corner = Vec::with_capacity(3 * nf as usize);
+        let mut opp = Vec::with_capacity(3 * nf as usize);
+        let mut tag = Vec::with_capacity(3 * nf as usize);
+        for f in 0..self.face_alive.len() {
+            if self.face_alive[f] {
+                for h in 3 * f..3 * f + 3 {
+                    corner.push(vmap[self.corner[h] as usize]);
+                    opp.push(map_h(self.opp[h]));
+                    tag.push(self.tag[h]);
+                }
+            }
+        }
+        let mut out = vec![NONE; positions.len()];
+        for (v, &m) in vmap.iter().enumerate() {
+            if m != NONE {
+                out[m as usize] = map_h(self.out[v]);
+            }
+        }
+        let n = positions.len();
+        *self = HalfEdgeMesh {
+            positions,
+            corner,
+            opp,
+            tag,
+            out,
+            face_alive: vec![true; nf as usize],
+            vertex_alive: vec![true; n],
+            n_live_faces: nf as usize,
+            n_live_vertices: n,
+        };
+        vmap
+    }
+
     // ---------------------------------------------------------------- access
 
     /// Vertex slots (live and deleted).
@@ -1055,6 +1116,21 @@ mod tests {
             }
         }
         assert_eq!(collapsed, 20);
+        let before = he.to_trimesh().0;
+        let h = (0..he.n_halfedge_slots() as u32)
+            .rev()
+            .find(|&h| he.is_halfedge_alive(h))
+            .unwrap();
+        let (a, b) = (he.from(h), he.to(h));
+        he.set_tag(h, 42);
+        let map = he.compact();
+        let k = he.find_edge(map[a as usize], map[b as usize]);
+        assert_eq!(he.tag(k), 42);
+        he.check().unwrap();
+        assert_eq!(he.n_vertex_slots(), s.n_vertices() - 20);
+        assert_eq!(he.n_halfedge_slots(), 3 * (s.n_faces() - 40));
+        assert_eq!(map.iter().filter(|&&m| m == NONE).count(), 20);
+        assert_eq!(he.to_trimesh().0, before);
         let (t, _) = he.to_trimesh();
         assert_eq!(t.n_vertices(), s.n_vertices() - 20);
         assert_eq!(t.n_faces(), s.n_faces() - 40);

@@ -16,4 +16,5 @@ pub use curvature_error::{curvature_error, CurvatureErrorNode, CurvatureErrorPar
 pub fn register(registry: &mut Registry) {
     registry.add::<CurvatureErrorNode>();
     registry.add::<mesh_quality::MeshQualityNode>();
+    registry.add::<mesh_distance::MeshDistanceNode>();
 }

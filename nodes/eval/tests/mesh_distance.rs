@@ -4,10 +4,7 @@ use crestflow_flow::{Par, Validate};
 use crestflow_geom::shapes::{ellipsoid, sphere};
 use crestflow_geom::vec3::{self, V3};
 use crestflow_geom::TriMesh;
-#[path = "../src/mesh_distance.rs"]
-#[allow(dead_code)]
-mod mesh_distance; // DEV-ONLY
-use mesh_distance::{
+use crestflow_nodes_eval::mesh_distance::{
     closest_point_on_triangle, mesh_distance, sample_surface, MeshDistanceError,
     MeshDistanceParams, TriangleBvh,
 };

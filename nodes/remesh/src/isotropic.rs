@@ -298,6 +298,7 @@ fn isotropic_with(
         st.collapse_short();
         st.equalize_valences();
         check()?;
+        st.compact();
         for step in 0..params.smoothing_steps {
             // Free vertices return to the input surface after the last sweep only (chain
             // vertices after every one, so that they keep sliding along their chain).
@@ -337,6 +338,22 @@ fn isotropic_with(
 }
 
 impl State<'_> {
+    /// Drops deleted elements so that the sweeps stay proportional to the live mesh.
+    fn compact(&mut self) {
+        let map = self.he.compact();
+        let n = self.he.n_vertex_slots();
+        let mut role = vec![Role::Free; n];
+        let mut hint = vec![u32::MAX; n];
+        for (old, &m) in map.iter().enumerate() {
+            if m != NONE {
+                role[m as usize] = self.role[old];
+                hint[m as usize] = self.hint[old];
+            }
+        }
+        self.role = role;
+        self.hint = hint;
+    }
+
     fn len2(&self, a: u32, b: u32) -> f64 {
         let d = vec3::sub(self.he.position(a), self.he.position(b));
         vec3::dot(d, d)

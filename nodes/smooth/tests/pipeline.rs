@@ -4,9 +4,6 @@ use std::path::Path;
 
 use crestflow_flow::{load_file, run, Registry, Report, RunOptions};
 use crestflow_geom::io::{load_mesh, LoadOptions};
-#[path = "../../eval/src/mesh_distance.rs"]
-#[allow(dead_code)]
-mod mesh_distance; // DEV-ONLY
 
 fn registry() -> Registry {
     let mut reg = Registry::new();
@@ -15,7 +12,6 @@ fn registry() -> Registry {
     crestflow_nodes_ridges::register(&mut reg);
     crestflow_nodes_smooth::register(&mut reg);
     crestflow_nodes_eval::register(&mut reg);
-    reg.add::<mesh_distance::MeshDistanceNode>(); // DEV-ONLY
     crestflow_nodes_render::register(&mut reg);
     reg
 }

@@ -15,12 +15,9 @@ use crestflow_flow::Par;
 use crestflow_geom::io::{load_mesh, LoadOptions};
 use crestflow_geom::{FeatureCurveNetwork, TriMesh};
 use crestflow_nodes_curvature::{polynomial_curvature, PolynomialParams};
-#[path = "../../eval/src/mesh_distance.rs"]
-#[allow(dead_code)]
-mod mesh_distance; // DEV-ONLY
+use crestflow_nodes_eval::mesh_distance::{mesh_distance, MeshDistanceParams};
 use crestflow_nodes_ridges::{trace, TraceParams};
 use crestflow_nodes_smooth::{laplacian_smooth, LaplacianParams, Step, Weights};
-use mesh_distance::{mesh_distance, MeshDistanceParams};
 
 /// (a) of Table 5.1: the network after co-completion (thesis §4.2.3, `selection.complete`).
 /// That node does not exist yet; when it does, return its completed network for `traced`
