@@ -18,5 +18,6 @@ pub fn registry() -> Registry {
     crestflow_nodes_eval::register(&mut reg);
     crestflow_nodes_shapes::register(&mut reg);
     crestflow_nodes_smooth::register(&mut reg);
+    crestflow_nodes_symmetry::register(&mut reg);
     reg
 }

@@ -18,7 +18,10 @@ fn median(mut v: Vec<f64>) -> f64 {
 }
 
 fn main() {
-    let args: Vec<String> = std::env::args().skip(1).filter(|a| a != "--bench").collect();
+    let args: Vec<String> = std::env::args()
+        .skip(1)
+        .filter(|a| a != "--bench")
+        .collect();
     let mut path = None;
     let mut repeats = 3usize;
     let mut i = 0;
@@ -32,8 +35,11 @@ fn main() {
         }
     }
     let path = path.expect("usage: gics MESH");
-    let mesh = load_mesh(&path, &LoadOptions::default()).expect("load").mesh;
-    let curv = polynomial_curvature(&mesh, &PolynomialParams::default(), Par::Rayon).expect("curvature");
+    let mesh = load_mesh(&path, &LoadOptions::default())
+        .expect("load")
+        .mesh;
+    let curv =
+        polynomial_curvature(&mesh, &PolynomialParams::default(), Par::Rayon).expect("curvature");
     let net = trace(&mesh, &curv.field, &TraceParams::default(), Par::Rayon)
         .expect("trace")
         .network;

@@ -251,7 +251,12 @@ mod tests {
     fn contour_of_linear_field_on_square() {
         // Unit square, two triangles, d = x: the contour at r is a vertical segment of length 1.
         let mesh = TriMesh::new(
-            vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]],
+            vec![
+                [0.0, 0.0, 0.0],
+                [1.0, 0.0, 0.0],
+                [1.0, 1.0, 0.0],
+                [0.0, 1.0, 0.0],
+            ],
             vec![[0, 1, 2], [0, 2, 3]],
         );
         let d = [0.0, 1.0, 1.0, 0.0];

@@ -74,11 +74,7 @@ pub enum HksError {
 
 /// Log-spaced times `[4 ln 10 / λ_max, 4 ln 10 / λ_1]`.
 pub fn hks_times(basis: &EigenBasis, q: usize) -> Result<Vec<f64>, HksError> {
-    let scale = basis
-        .values
-        .iter()
-        .map(|l| l.abs())
-        .fold(0.0f64, f64::max);
+    let scale = basis.values.iter().map(|l| l.abs()).fold(0.0f64, f64::max);
     let lambda1 = basis
         .values
         .iter()
@@ -119,7 +115,10 @@ pub fn curve_hks_from_basis(
             return Err(HksError::EmptyCurve { curve: c });
         }
         let corners = curve_corners(network, c, mesh).map_err(HksError::Curve)?;
-        let pos: Vec<_> = corners.iter().map(|cs| corners_position(mesh, cs)).collect();
+        let pos: Vec<_> = corners
+            .iter()
+            .map(|cs| corners_position(mesh, cs))
+            .collect();
         let w = curve_vertex_weights(&pos, curve.closed);
         curves_pts.push((w, corners));
     }

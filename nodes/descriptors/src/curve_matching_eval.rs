@@ -31,7 +31,10 @@ impl Validate for CurveMatchingEvalParams {
     fn validate(&self) -> Vec<ParamIssue> {
         let mut issues = Vec::new();
         if !self.roc_path.is_empty() && !self.roc_path.to_ascii_lowercase().ends_with(".png") {
-            issues.push(ParamIssue::new("roc_path", "the ROC curve is a PNG: use a .png file"));
+            issues.push(ParamIssue::new(
+                "roc_path",
+                "the ROC curve is a PNG: use a .png file",
+            ));
         }
         if self.label.contains(|c: char| c.is_whitespace()) {
             issues.push(ParamIssue::new("label", "no spaces in a report key"));
@@ -271,7 +274,10 @@ impl NodeKind for CurveMatchingEvalNode {
             write_roc_png(&eval.roc, &path)
                 .map_err(|e| NodeError::from_source(ErrorKind::InvalidInput, e))?;
         }
-        let mut report = inputs.opt::<Report>("previous")?.cloned().unwrap_or_default();
+        let mut report = inputs
+            .opt::<Report>("previous")?
+            .cloned()
+            .unwrap_or_default();
         let key = |group: &str, what: &str| {
             if params.label.is_empty() {
                 format!("{group}.{what}")
@@ -334,7 +340,13 @@ mod tests {
         let err = curve_matching_eval(&m, &[[0, 0], [1, 5]]).unwrap_err();
         assert!(matches!(
             err,
-            EvalError::PairOutOfRange { index: 1, s: 1, t: 5, n_source: 2, n_target: 2 }
+            EvalError::PairOutOfRange {
+                index: 1,
+                s: 1,
+                t: 5,
+                n_source: 2,
+                n_target: 2
+            }
         ));
     }
 

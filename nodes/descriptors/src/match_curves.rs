@@ -252,7 +252,9 @@ mod tests {
         // Seeded LCG costs, square and rectangular both ways.
         let mut s: u64 = 12345;
         let mut rnd = || {
-            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             (s >> 11) as f64 / (1u64 << 53) as f64
         };
         for &(n, m) in &[(1, 1), (3, 3), (5, 5), (6, 6), (4, 7), (7, 4), (6, 3)] {

@@ -19,16 +19,15 @@ fn latitude_circle(mesh: &TriMesh, z0: f64) -> FeatureCurveNetwork {
         let (pa, pb) = (mesh.positions[a as usize], mesh.positions[b as usize]);
         if (pa[2] - z0) * (pb[2] - z0) < 0.0 {
             let t = (z0 - pa[2]) / (pb[2] - pa[2]);
-            let p = [
-                pa[0] + t * (pb[0] - pa[0]),
-                pa[1] + t * (pb[1] - pa[1]),
-                z0,
-            ];
-            pts.push((p[1].atan2(p[0]), FcnVertex {
-                position: p,
-                location: SurfacePoint::Edge { a, b, t },
-                strength: 1.0,
-            }));
+            let p = [pa[0] + t * (pb[0] - pa[0]), pa[1] + t * (pb[1] - pa[1]), z0];
+            pts.push((
+                p[1].atan2(p[0]),
+                FcnVertex {
+                    position: p,
+                    location: SurfacePoint::Edge { a, b, t },
+                    strength: 1.0,
+                },
+            ));
         }
     }
     pts.sort_by(|x, y| x.0.total_cmp(&y.0));
@@ -101,7 +100,11 @@ fn curve_hks_equals_the_double_sum_of_the_definition() {
     // Brute force: Σ_{v1} Σ_{v2} w1 w2 Σ_i e^{−λt} φ_i(v1) φ_i(v2), with w the normalised
     // half-segment lengths and φ interpolated on the edges.
     let c = &net.curves[0];
-    let pts: Vec<_> = c.vertices.iter().map(|&v| net.vertices[v as usize].clone()).collect();
+    let pts: Vec<_> = c
+        .vertices
+        .iter()
+        .map(|&v| net.vertices[v as usize].clone())
+        .collect();
     let m = pts.len();
     let mut w = vec![0.0; m];
     for s in 0..m {
@@ -128,7 +131,10 @@ fn curve_hks_equals_the_double_sum_of_the_definition() {
             }
         }
         let got = h.curves[0].values[ti];
-        assert!((got - sum).abs() <= 1e-10 * sum.abs(), "t {t}: {got} vs {sum}");
+        assert!(
+            (got - sum).abs() <= 1e-10 * sum.abs(),
+            "t {t}: {got} vs {sum}"
+        );
     }
     // Heat leaves the curve: the signature decreases with time.
     let v = &h.curves[0].values;

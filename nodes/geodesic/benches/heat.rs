@@ -45,7 +45,10 @@ fn pick_source(mesh: &TriMesh) -> u32 {
 }
 
 fn main() {
-    let args: Vec<String> = std::env::args().skip(1).filter(|a| a != "--bench").collect();
+    let args: Vec<String> = std::env::args()
+        .skip(1)
+        .filter(|a| a != "--bench")
+        .collect();
     let mut mesh_path = None;
     let mut repeats = 5usize;
     let mut sphere_level = None;
@@ -73,7 +76,9 @@ fn main() {
         write_off(&m, &path).expect("write sphere");
         m
     } else {
-        load_mesh(&path, &LoadOptions::default()).expect("load mesh").mesh
+        load_mesh(&path, &LoadOptions::default())
+            .expect("load mesh")
+            .mesh
     };
     let par = Par::Rayon;
     let mut t_pre = Vec::new();
@@ -95,7 +100,9 @@ fn main() {
     }
     let field = field.expect("repeats > 0");
     let n = mesh.n_vertices() as u32;
-    let batch: Vec<HeatSource> = (0..16).map(|k| HeatSource::vertices(&[(k * 7919) % n])).collect();
+    let batch: Vec<HeatSource> = (0..16)
+        .map(|k| HeatSource::vertices(&[(k * 7919) % n]))
+        .collect();
     let mut t_batch = Vec::new();
     for _ in 0..repeats {
         let t = Instant::now();
@@ -108,7 +115,11 @@ fn main() {
         let exact: Vec<f64> = mesh
             .positions
             .iter()
-            .map(|p| (p[0] * p0[0] + p[1] * p0[1] + p[2] * p0[2]).clamp(-1.0, 1.0).acos())
+            .map(|p| {
+                (p[0] * p0[0] + p[1] * p0[1] + p[2] * p0[2])
+                    .clamp(-1.0, 1.0)
+                    .acos()
+            })
             .collect();
         let m = exact.iter().cloned().fold(0.0, f64::max);
         let (mut sum_abs, mut max_abs, mut sum_rel, mut cnt) = (0.0, 0.0f64, 0.0, 0usize);

@@ -126,7 +126,10 @@ impl HeatSource {
         mesh: &TriMesh,
     ) -> Result<HeatSource, HeatError> {
         let corners = curve_corners(network, c, mesh)?;
-        let pos: Vec<V3> = corners.iter().map(|cs| corners_position(mesh, cs)).collect();
+        let pos: Vec<V3> = corners
+            .iter()
+            .map(|cs| corners_position(mesh, cs))
+            .collect();
         let weights = curve_vertex_weights(&pos, network.curves[c].closed);
         Ok(HeatSource {
             points: corners
@@ -237,7 +240,9 @@ pub enum HeatError {
     BadTimeFactor(f64),
     #[error("source {source_index} is empty (no points)")]
     EmptySource { source_index: usize },
-    #[error("source {source_index} references vertex {vertex} but the mesh has {n_vertices} vertices")]
+    #[error(
+        "source {source_index} references vertex {vertex} but the mesh has {n_vertices} vertices"
+    )]
     SourceOutOfRange {
         source_index: usize,
         vertex: u32,
@@ -516,7 +521,10 @@ impl HeatSolver {
         let mut sum = vec![0.0; n_comp];
         let mut wsum = vec![0.0; n_comp];
         for p in &src.points {
-            let Some(&(v0, _)) = p.corners.iter().find(|(v, _)| self.component[*v as usize] != u32::MAX)
+            let Some(&(v0, _)) = p
+                .corners
+                .iter()
+                .find(|(v, _)| self.component[*v as usize] != u32::MAX)
             else {
                 continue;
             };

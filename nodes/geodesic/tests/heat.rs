@@ -11,7 +11,11 @@ fn grid(nx: usize, ny: usize, size: f64) -> TriMesh {
     let mut pos = Vec::new();
     for j in 0..=ny {
         for i in 0..=nx {
-            pos.push([size * i as f64 / nx as f64, size * j as f64 / ny as f64, 0.0]);
+            pos.push([
+                size * i as f64 / nx as f64,
+                size * j as f64 / ny as f64,
+                0.0,
+            ]);
         }
     }
     let id = |i: usize, j: usize| (j * (nx + 1) + i) as u32;
@@ -29,11 +33,15 @@ fn grid(nx: usize, ny: usize, size: f64) -> TriMesh {
 fn sphere_error(level: u32) -> (f64, f64) {
     let mesh = sphere(1.0, level).unwrap();
     let solver = HeatSolver::new(&mesh, 1.0, Par::Rayon).unwrap();
-    let d = solver.distance(&HeatSource::vertices(&[0]), Par::Rayon).unwrap();
+    let d = solver
+        .distance(&HeatSource::vertices(&[0]), Par::Rayon)
+        .unwrap();
     let p0 = mesh.positions[0];
     let (mut sum, mut cnt, mut max_abs) = (0.0, 0usize, 0.0f64);
     for (v, p) in mesh.positions.iter().enumerate() {
-        let exact = (dot(*p, p0) / (norm(*p) * norm(p0))).clamp(-1.0, 1.0).acos();
+        let exact = (dot(*p, p0) / (norm(*p) * norm(p0)))
+            .clamp(-1.0, 1.0)
+            .acos();
         max_abs = max_abs.max((d.values[v] - exact).abs());
         if exact > 0.1 {
             sum += (d.values[v] - exact).abs() / exact;
@@ -234,10 +242,16 @@ fn second_component_without_source_is_unreachable() {
     let mut pos = a.positions.clone();
     pos.extend(a.positions.iter().map(|p| [p[0] + 5.0, p[1], p[2]]));
     let mut tris = a.triangles.clone();
-    tris.extend(a.triangles.iter().map(|t| [t[0] + na, t[1] + na, t[2] + na]));
+    tris.extend(
+        a.triangles
+            .iter()
+            .map(|t| [t[0] + na, t[1] + na, t[2] + na]),
+    );
     let mesh = TriMesh::new(pos, tris);
     let solver = HeatSolver::new(&mesh, 1.0, Par::Seq).unwrap();
-    let d = solver.distance(&HeatSource::vertices(&[0]), Par::Seq).unwrap();
+    let d = solver
+        .distance(&HeatSource::vertices(&[0]), Par::Seq)
+        .unwrap();
     assert!(d.values[..na as usize].iter().all(|x| x.is_finite()));
     assert!(d.values[na as usize..].iter().all(|x| x.is_infinite()));
     // Same distances as the single sphere.
@@ -249,4 +263,3 @@ fn second_component_without_source_is_unreachable() {
         assert!((d.values[v] - single.values[v]).abs() < 1e-9);
     }
 }
-
