@@ -19,5 +19,7 @@ pub fn registry() -> Registry {
     crestflow_nodes_shapes::register(&mut reg);
     crestflow_nodes_smooth::register(&mut reg);
     crestflow_nodes_symmetry::register(&mut reg);
+    crestflow_nodes_geodesic::register(&mut reg);
+    crestflow_nodes_descriptors::register(&mut reg);
     reg
 }

@@ -47,5 +47,8 @@ fn curve_matching_graph_runs_on_two_cat_poses() {
     }
     assert!(out.join("roc_gics.png").exists());
     assert!(out.join("roc_hks.png").exists());
-    let _ = std::fs::remove_dir_all(&out);
+    // Set KEEP_OUT=1 to keep the report and ROC pictures for inspection.
+    if std::env::var_os("KEEP_OUT").is_none() {
+        let _ = std::fs::remove_dir_all(&out);
+    }
 }

@@ -21,7 +21,9 @@
 //! a corner; corners (see [`crate::features`]) never move and are never removed; other feature
 //! vertices relax towards the midpoint of their two chain neighbours and are projected onto
 //! their chain (the polyline of input feature edges), so they slide along it only. Boundary
-//! edges are features, so boundaries are preserved.
+//! edges are features, so boundaries are preserved. How curves become mesh edges is in
+//! [`crate::features`]; sharp-edge chains that end freely at both ends and are shorter than
+//! `min_feature_length` target lengths are dropped (a feature below the scale, thesis §4.3).
 //!
 //! Termination: a fixed number of rounds, at most 64 split and 4 collapse sweeps per round,
 //! and a vertex cap. A target below 1/20 of the input's mean edge length is rejected.
@@ -677,7 +679,8 @@ impl NodeKind for IsotropicNode {
         2004, thesis §5.1.1): splits > 4/3 L, collapses < 4/5 L, valence-improving flips, \
         tangential relaxation and projection onto the input surface, for `iterations` rounds. \
         Feature edges are kept: the optional feature curve network (snapped to mesh edges), \
-        sharp edges (dihedral > sharp_angle_deg) and boundaries; corners stay fixed, other \
+        sharp edges (dihedral > sharp_angle_deg; free-ended sharp chains shorter than \
+        min_feature_length targets are dropped) and boundaries; corners stay fixed, other \
         feature vertices slide along their feature polyline, feature edges are never flipped \
         and collapse only along themselves. `target` is a fraction of the bbox diagonal \
         (relative: true) or absolute. Outputs the mesh and a Report (vertices_out, \
