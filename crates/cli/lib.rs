@@ -21,5 +21,6 @@ pub fn registry() -> Registry {
     crestflow_nodes_symmetry::register(&mut reg);
     crestflow_nodes_geodesic::register(&mut reg);
     crestflow_nodes_descriptors::register(&mut reg);
+    crestflow_nodes_remesh::register(&mut reg);
     reg
 }

@@ -305,7 +305,7 @@ fn sym_eig_desc(h: &[f64], m: usize) -> (Vec<f64>, Vec<f64>) {
     );
     if ok.is_err() {
         // faer's tridiagonal QR did not converge (not seen in practice): fall back to
-        // nalgebra's Jacobi-free implicit QR on the same matrix.
+        // nalgebra's symmetric eigensolver on the same matrix.
         let e = nalgebra::DMatrix::<f64>::from_fn(m, m, |i, j| a[(i, j)]).symmetric_eigen();
         for i in 0..m {
             s[i] = e.eigenvalues[i];
