@@ -22,5 +22,6 @@ pub fn registry() -> Registry {
     crestflow_nodes_geodesic::register(&mut reg);
     crestflow_nodes_descriptors::register(&mut reg);
     crestflow_nodes_remesh::register(&mut reg);
+    crestflow_nodes_spectral::register(&mut reg);
     reg
 }
