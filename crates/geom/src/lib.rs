@@ -3,6 +3,7 @@
 //!
 //! It knows nothing about the engine: these are plain types with serde, used as port values.
 
+pub mod bvh;
 pub mod curvature;
 pub mod fcn;
 pub mod halfedge;

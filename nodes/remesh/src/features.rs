@@ -187,7 +187,7 @@ fn snap_vertices(
                 Ok(t[k])
             }
             SurfacePoint::Free => {
-                let hit = bvh.closest(v.position, u32::MAX);
+                let hit = bvh.closest(v.position);
                 Ok(nearest_corner(hit.face, v.position))
             }
         })

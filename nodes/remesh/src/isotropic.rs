@@ -637,7 +637,7 @@ impl State<'_> {
                         p
                     };
                     if project {
-                        let hit = bvh.closest(q, hint[v as usize]);
+                        let hit = bvh.closest_with_hint(q, hint[v as usize]);
                         (hit.point, hit.face)
                     } else {
                         (q, hint[v as usize])

@@ -116,7 +116,7 @@ fn hausdorff(a: &TriMesh, b: &TriMesh) -> f64 {
             pts.push(vec3::scale(vec3::add(vec3::add(p, q), r), 1.0 / 3.0));
         }
         pts.iter()
-            .map(|&p| bvh.closest(p, u32::MAX).dist2.sqrt())
+            .map(|&p| bvh.closest(p).dist2.sqrt())
             .fold(0.0, f64::max)
     };
     one(a, b).max(one(b, a))
@@ -422,7 +422,7 @@ fn fandisk_keeps_its_sharp_edges() {
     // Every output vertex is projected onto the input surface.
     let bvh = Bvh::new(&input);
     for p in &out.mesh.positions {
-        let d = bvh.closest(*p, u32::MAX).dist2.sqrt();
+        let d = bvh.closest(*p).dist2.sqrt();
         assert!(d < 1e-12 * diag, "vertex {p:?} is {d} off the input");
     }
     // What remains is the chord error of curved parts, a fraction of the target length

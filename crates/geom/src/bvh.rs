@@ -1,0 +1,315 @@
+//! Exact closest-point queries on a triangle mesh: a bounding volume hierarchy over the
+//! triangles (median split on the longest centroid axis, leaves of up to 4 triangles) and the
+//! point-triangle case analysis. Used by mesh distances (Hausdorff) and by remeshing's
+//! projection back onto the input surface (Botsch & Kobbelt 2004).
+
+use crate::vec3::{self, V3};
+use crate::TriMesh;
+
+/// The closest point of triangle (a, b, c) to `p`: its squared distance and barycentric
+/// coordinates. Exact case analysis over the Voronoi regions of the corners, sides and
+/// interior (each region is tested with the signs of a few dot products).
+pub fn closest_point_on_triangle(p: V3, a: V3, b: V3, c: V3) -> (f64, [f64; 3]) {
+    let ab = vec3::sub(b, a);
+    let ac = vec3::sub(c, a);
+    let ap = vec3::sub(p, a);
+    let d1 = vec3::dot(ab, ap);
+    let d2 = vec3::dot(ac, ap);
+    let bary = if d1 <= 0.0 && d2 <= 0.0 {
+        [1.0, 0.0, 0.0]
+    } else {
+        let bp = vec3::sub(p, b);
+        let d3 = vec3::dot(ab, bp);
+        let d4 = vec3::dot(ac, bp);
+        let cp = vec3::sub(p, c);
+        let d5 = vec3::dot(ab, cp);
+        let d6 = vec3::dot(ac, cp);
+        let vc = d1 * d4 - d3 * d2;
+        let vb = d5 * d2 - d1 * d6;
+        let va = d3 * d6 - d5 * d4;
+        if d3 >= 0.0 && d4 <= d3 {
+            [0.0, 1.0, 0.0]
+        } else if d6 >= 0.0 && d5 <= d6 {
+            [0.0, 0.0, 1.0]
+        } else if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+            // Side ab.
+            let v = d1 / (d1 - d3);
+            [1.0 - v, v, 0.0]
+        } else if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+            // Side ac.
+            let w = d2 / (d2 - d6);
+            [1.0 - w, 0.0, w]
+        } else if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+            // Side bc.
+            let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+            [0.0, 1.0 - w, w]
+        } else {
+            let s = va + vb + vc;
+            if s > 0.0 && s.is_finite() {
+                let v = vb / s;
+                let w = vc / s;
+                [1.0 - v - w, v, w]
+            } else {
+                // Degenerate (zero-area) triangle that slipped through: fall back to its
+                // corners, which is where such a triangle's points are anyway.
+                let da = vec3::dot(ap, ap);
+                let db = vec3::dot(bp, bp);
+                let dc = vec3::dot(cp, cp);
+                if da <= db && da <= dc {
+                    [1.0, 0.0, 0.0]
+                } else if db <= dc {
+                    [0.0, 1.0, 0.0]
+                } else {
+                    [0.0, 0.0, 1.0]
+                }
+            }
+        }
+    };
+    let q = [
+        bary[0] * a[0] + bary[1] * b[0] + bary[2] * c[0],
+        bary[0] * a[1] + bary[1] * b[1] + bary[2] * c[1],
+        bary[0] * a[2] + bary[1] * b[2] + bary[2] * c[2],
+    ];
+    let d = vec3::sub(p, q);
+    (vec3::dot(d, d), bary)
+}
+
+/// An axis-aligned box.
+#[derive(Clone, Copy, Debug)]
+struct Aabb {
+    lo: V3,
+    hi: V3,
+}
+
+impl Aabb {
+    const EMPTY: Aabb = Aabb {
+        lo: [f64::INFINITY; 3],
+        hi: [f64::NEG_INFINITY; 3],
+    };
+    fn grow(&mut self, p: V3) {
+        for (k, &c) in p.iter().enumerate() {
+            self.lo[k] = self.lo[k].min(c);
+            self.hi[k] = self.hi[k].max(c);
+        }
+    }
+    fn merge(&mut self, o: &Aabb) {
+        self.grow(o.lo);
+        self.grow(o.hi);
+    }
+    /// Squared distance from `p` to the box (0 inside).
+    fn dist2(&self, p: V3) -> f64 {
+        let mut s = 0.0;
+        for (k, &c) in p.iter().enumerate() {
+            let d = (self.lo[k] - c).max(c - self.hi[k]).max(0.0);
+            s += d * d;
+        }
+        s
+    }
+}
+
+#[derive(Clone, Copy, Debug)]
+struct BvhNode {
+    bounds: Aabb,
+    /// Leaf: first index into `order`; inner: index of the left child (right = left + 1).
+    first: u32,
+    /// Leaf: number of triangles (> 0); inner: 0.
+    count: u32,
+}
+
+/// The closest point of a mesh to a query point.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ClosestPoint {
+    pub distance: f64,
+    /// `distance` squared (what the search compares).
+    pub dist2: f64,
+    pub face: u32,
+    pub bary: [f64; 3],
+    /// The point itself: `bary` applied to the face's corners.
+    pub point: V3,
+}
+
+impl ClosestPoint {
+    const NONE: ClosestPoint = ClosestPoint {
+        distance: f64::INFINITY,
+        dist2: f64::INFINITY,
+        face: u32::MAX,
+        bary: [0.0; 3],
+        point: [f64::NAN; 3],
+    };
+}
+
+/// A bounding volume hierarchy over the triangles of a mesh, for exact closest-point queries.
+/// Built by median splits on the longest axis of the triangle centroids (leaves of up to 4
+/// triangles); a query descends the nearer child first and prunes boxes farther than the best
+/// distance found, so it returns the exact minimum over all triangles.
+pub struct TriangleBvh {
+    tris: Vec<[V3; 3]>,
+    nodes: Vec<BvhNode>,
+    order: Vec<u32>,
+}
+
+const LEAF_SIZE: usize = 4;
+
+impl TriangleBvh {
+    /// Builds the hierarchy over a copy of the triangles (the mesh's indices must be valid).
+    pub fn new(mesh: &TriMesh) -> Self {
+        let nf = mesh.n_faces();
+        let boxes: Vec<Aabb> = (0..nf)
+            .map(|f| {
+                let mut b = Aabb::EMPTY;
+                for p in mesh.face_points(f) {
+                    b.grow(p);
+                }
+                b
+            })
+            .collect();
+        let centroids: Vec<V3> = (0..nf)
+            .map(|f| {
+                let [a, b, c] = mesh.face_points(f);
+                vec3::scale(vec3::add(vec3::add(a, b), c), 1.0 / 3.0)
+            })
+            .collect();
+        let mut order: Vec<u32> = (0..nf as u32).collect();
+        let mut nodes = Vec::with_capacity(2 * nf / LEAF_SIZE + 1);
+        nodes.push(BvhNode {
+            bounds: Aabb::EMPTY,
+            first: 0,
+            count: 0,
+        });
+        // Explicit stack of (node, start, end) so deep meshes cannot overflow the call stack.
+        let mut stack = vec![(0usize, 0usize, nf)];
+        while let Some((node, start, end)) = stack.pop() {
+            let mut bounds = Aabb::EMPTY;
+            let mut cbounds = Aabb::EMPTY;
+            for &f in &order[start..end] {
+                bounds.merge(&boxes[f as usize]);
+                cbounds.grow(centroids[f as usize]);
+            }
+            nodes[node].bounds = bounds;
+            if end - start <= LEAF_SIZE {
+                nodes[node].first = start as u32;
+                nodes[node].count = (end - start) as u32;
+                continue;
+            }
+            let ext = vec3::sub(cbounds.hi, cbounds.lo);
+            let axis = if ext[0] >= ext[1] && ext[0] >= ext[2] {
+                0
+            } else if ext[1] >= ext[2] {
+                1
+            } else {
+                2
+            };
+            let mid = (start + end) / 2;
+            // Ties broken by face index: the tree (and so nothing downstream) depends on the
+            // sort algorithm.
+            order[start..end].select_nth_unstable_by(mid - start, |&x, &y| {
+                centroids[x as usize][axis]
+                    .total_cmp(&centroids[y as usize][axis])
+                    .then(x.cmp(&y))
+            });
+            let left = nodes.len();
+            for _ in 0..2 {
+                nodes.push(BvhNode {
+                    bounds: Aabb::EMPTY,
+                    first: 0,
+                    count: 0,
+                });
+            }
+            nodes[node].first = left as u32;
+            nodes[node].count = 0;
+            stack.push((left + 1, mid, end));
+            stack.push((left, start, mid));
+        }
+        let tris = (0..nf).map(|f| mesh.face_points(f)).collect();
+        TriangleBvh { tris, nodes, order }
+    }
+
+    /// Number of triangles.
+    pub fn n_faces(&self) -> usize {
+        self.tris.len()
+    }
+
+    /// The closest point of triangle `f` to `p`.
+    pub fn on_face(&self, f: u32, p: V3) -> ClosestPoint {
+        let [a, b, c] = self.tris[f as usize];
+        let (dist2, bary) = closest_point_on_triangle(p, a, b, c);
+        ClosestPoint {
+            distance: dist2.sqrt(),
+            dist2,
+            face: f,
+            bary,
+            point: barycentric_point(bary, a, b, c),
+        }
+    }
+
+    /// The closest point of the mesh to `p` (exact). Among equally close triangles the one
+    /// with the smallest face index wins.
+    pub fn closest(&self, p: V3) -> ClosestPoint {
+        self.closest_with_hint(p, u32::MAX)
+    }
+
+    /// Like [`TriangleBvh::closest`]; `hint` (a face index, or anything out of range for none),
+    /// usually the previous answer for a point that moved a little, only speeds the search up:
+    /// its distance is the first bound, so the descent prunes almost everything.
+    pub fn closest_with_hint(&self, p: V3, hint: u32) -> ClosestPoint {
+        let mut best = if (hint as usize) < self.tris.len() {
+            self.on_face(hint, p)
+        } else {
+            ClosestPoint::NONE
+        };
+        let mut stack: Vec<u32> = Vec::with_capacity(64);
+        if !self.nodes.is_empty() {
+            stack.push(0);
+        }
+        while let Some(n) = stack.pop() {
+            let node = &self.nodes[n as usize];
+            if node.bounds.dist2(p) > best.dist2 {
+                continue;
+            }
+            if node.count > 0 {
+                let s = node.first as usize;
+                for &f in &self.order[s..s + node.count as usize] {
+                    let [a, b, c] = self.tris[f as usize];
+                    let (d2, bary) = closest_point_on_triangle(p, a, b, c);
+                    if d2 < best.dist2 || (d2 == best.dist2 && f < best.face) {
+                        best = ClosestPoint {
+                            distance: 0.0,
+                            dist2: d2,
+                            face: f,
+                            bary,
+                            point: [0.0; 3],
+                        };
+                    }
+                }
+            } else if node.first > 0 {
+                let l = node.first;
+                let (dl, dr) = (
+                    self.nodes[l as usize].bounds.dist2(p),
+                    self.nodes[l as usize + 1].bounds.dist2(p),
+                );
+                // Push the farther child first so the nearer one is searched first.
+                if dl <= dr {
+                    stack.push(l + 1);
+                    stack.push(l);
+                } else {
+                    stack.push(l);
+                    stack.push(l + 1);
+                }
+            }
+        }
+        if best.face != u32::MAX {
+            let [a, b, c] = self.tris[best.face as usize];
+            best.distance = best.dist2.sqrt();
+            best.point = barycentric_point(best.bary, a, b, c);
+        }
+        best
+    }
+}
+
+fn barycentric_point(bary: [f64; 3], a: V3, b: V3, c: V3) -> V3 {
+    [
+        bary[0] * a[0] + bary[1] * b[0] + bary[2] * c[0],
+        bary[0] * a[1] + bary[1] * b[1] + bary[2] * c[1],
+        bary[0] * a[2] + bary[1] * b[2] + bary[2] * c[2],
+    ]
+}
