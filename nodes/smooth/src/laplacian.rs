@@ -47,7 +47,7 @@ use crestflow_nodes_spectral::sparse::{
 };
 
 use crate::constraints::{curve_fixed_vertices, ConstraintError};
-use crate::cotan::CotanAssembler;
+use crestflow_nodes_spectral::assemble::CotanAssembler;
 
 /// Edge weights of the Laplacian.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]

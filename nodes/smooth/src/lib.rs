@@ -8,7 +8,6 @@
 use crestflow_flow::Registry;
 
 pub mod constraints;
-pub mod cotan;
 pub mod laplacian;
 
 pub use constraints::{curve_fixed_vertices, ConstraintError};

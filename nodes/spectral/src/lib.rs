@@ -9,6 +9,7 @@
 
 use crestflow_flow::Registry;
 
+pub mod assemble;
 pub mod eigenbasis;
 pub mod laplacian;
 pub mod sparse;

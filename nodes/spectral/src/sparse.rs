@@ -548,11 +548,11 @@ pub enum OperatorError {
 
 /// The per-face quantities both matrices need: corner cotangents and the three vertex
 /// masses, from (possibly mollified) edge lengths.
-struct FaceTerms {
+pub(crate) struct FaceTerms {
     /// cot of the angle at corner i (clamped).
-    cot: [f64; 3],
+    pub(crate) cot: [f64; 3],
     /// Mass given to corner i.
-    mass: [f64; 3],
+    pub(crate) mass: [f64; 3],
 }
 
 fn check_mesh(mesh: &TriMesh, opts: &LaplacianOptions) -> Result<(), OperatorError> {
@@ -591,13 +591,19 @@ fn check_mesh(mesh: &TriMesh, opts: &LaplacianOptions) -> Result<(), OperatorErr
     Ok(())
 }
 
-/// Edge lengths of face f: `l[i]` is the length of the side opposite corner i.
-fn face_lengths(mesh: &TriMesh, f: usize) -> [f64; 3] {
-    let [a, b, c] = mesh.face_points(f);
+/// Edge lengths of triangle `t` at positions `x`: `l[i]` is the length of the side opposite
+/// corner i.
+pub(crate) fn triangle_lengths(x: &[[f64; 3]], t: [u32; 3]) -> [f64; 3] {
+    let (a, b, c) = (x[t[0] as usize], x[t[1] as usize], x[t[2] as usize]);
     let d = |p: [f64; 3], q: [f64; 3]| {
         ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt()
     };
     [d(b, c), d(c, a), d(a, b)]
+}
+
+/// Edge lengths of face f of `mesh`.
+fn face_lengths(mesh: &TriMesh, f: usize) -> [f64; 3] {
+    triangle_lengths(&mesh.positions, mesh.triangles[f])
 }
 
 /// The mollification δ added to every edge length (module docs).
@@ -605,18 +611,25 @@ fn mollify_delta(mesh: &TriMesh, mollify: f64) -> f64 {
     if mollify == 0.0 {
         return 0.0;
     }
+    let lens: Vec<[f64; 3]> = (0..mesh.n_faces()).map(|f| face_lengths(mesh, f)).collect();
+    mollify_delta_of_lengths(&lens, mollify)
+}
+
+/// The mollification δ from the faces' edge lengths.
+pub(crate) fn mollify_delta_of_lengths(lens: &[[f64; 3]], mollify: f64) -> f64 {
+    if mollify == 0.0 {
+        return 0.0;
+    }
     let mut sum = 0.0;
     let mut count = 0usize;
-    for f in 0..mesh.n_faces() {
-        let l = face_lengths(mesh, f);
+    for l in lens {
         sum += l[0] + l[1] + l[2];
         count += 3;
     }
     let eps = mollify * sum / count.max(1) as f64;
     // Adding δ to all three lengths raises every slack by δ.
     let mut delta: f64 = 0.0;
-    for f in 0..mesh.n_faces() {
-        let l = face_lengths(mesh, f);
+    for l in lens {
         for i in 0..3 {
             // Slack of the triangle inequality for the side opposite corner i.
             let slack = l[(i + 1) % 3] + l[(i + 2) % 3] - l[i];
@@ -626,7 +639,7 @@ fn mollify_delta(mesh: &TriMesh, mollify: f64) -> f64 {
     delta
 }
 
-fn face_terms(l: [f64; 3], mass: MassKind) -> FaceTerms {
+pub(crate) fn face_terms(l: [f64; 3], mass: MassKind) -> FaceTerms {
     // Heron's formula in its stable form (Kahan): sort a ≥ b ≥ c.
     let mut s = l;
     s.sort_by(|x, y| y.total_cmp(x));

@@ -1,20 +1,19 @@
-//! Re-assembly of the cotangent Laplacian and lumped mass on the moving mesh (thesis §2.3).
+//! Re-assembly of the cotangent Laplacian and lumped mass on moving positions (thesis §2.3),
+//! for iterative methods such as Laplacian smoothing.
 //!
-//! The operator is the one of `crestflow_nodes_spectral::sparse::laplacian_and_mass`, whose
-//! sparsity pattern depends on the triangles only. Smoothing rebuilds the operator at every
-//! iteration on new positions: instead of assembling from triplets (a sort of 12 entries per
-//! face), the pattern is built once from the mesh's edges and the values are written straight
-//! into it through precomputed slots. The per-face terms follow the spectral crate's definition to the bit
-//! (intrinsic mollification of the edge lengths, Kahan's Heron formula, triangles with a
-//! cotangent beyond `COT_CLAMP` left out, barycentric or mixed Voronoi masses) and the sums
-//! run in the same face and corner order, so the result equals `laplacian_and_mass` exactly;
-//! a test checks it.
+//! The sparsity pattern of [`crate::sparse::laplacian_and_mass`] depends on the triangles
+//! only. Instead of assembling from triplets at every step (a sort of 12 entries per face), the
+//! pattern is built once from the mesh's edges and the values are written straight into it
+//! through precomputed slots. The per-face terms are the same functions, summed in the same
+//! face and corner order, so the result equals `laplacian_and_mass` bit for bit (tested).
 
 use crestflow_flow::Par;
 use crestflow_geom::vec3::V3;
 use crestflow_geom::TriMesh;
-use crestflow_nodes_spectral::sparse::{
-    CsrMatrix, LaplacianOptions, MassKind, OperatorError, SparseError, COT_CLAMP,
+
+use crate::sparse::{
+    face_terms, mollify_delta_of_lengths, triangle_lengths, CsrMatrix, LaplacianOptions, MassKind,
+    OperatorError, SparseError,
 };
 
 /// Writes the cotangent stiffness and the lumped mass of new positions into a fixed pattern.
@@ -22,79 +21,6 @@ pub struct CotanAssembler {
     opts: LaplacianOptions,
     /// Per face, per corner i: the slots of (j, k), (k, j), (j, j), (k, k) in the CSR values.
     slots: Vec<[usize; 12]>,
-}
-
-fn lengths(x: &[V3], t: [u32; 3]) -> [f64; 3] {
-    let d = |p: V3, q: V3| {
-        ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt()
-    };
-    let (a, b, c) = (x[t[0] as usize], x[t[1] as usize], x[t[2] as usize]);
-    [d(b, c), d(c, a), d(a, b)]
-}
-
-/// The length δ added to every edge (intrinsic mollification, Sharp & Crane 2020).
-fn mollify_delta(lens: &[[f64; 3]], mollify: f64) -> f64 {
-    if mollify == 0.0 {
-        return 0.0;
-    }
-    let mut sum = 0.0;
-    let mut count = 0usize;
-    for l in lens {
-        sum += l[0] + l[1] + l[2];
-        count += 3;
-    }
-    let eps = mollify * sum / count.max(1) as f64;
-    let mut delta: f64 = 0.0;
-    for l in lens {
-        for i in 0..3 {
-            let slack = l[(i + 1) % 3] + l[(i + 2) % 3] - l[i];
-            delta = delta.max(eps - slack);
-        }
-    }
-    delta
-}
-
-/// Corner cotangents and masses of a triangle with side lengths `l` (`l[i]` opposite corner i).
-fn face_terms(l: [f64; 3], mass: MassKind) -> ([f64; 3], [f64; 3]) {
-    let mut s = l;
-    s.sort_by(|x, y| y.total_cmp(x));
-    let [a, b, c] = s;
-    let prod = (a + (b + c)) * (c - (a - b)) * (c + (a - b)) * (a + (b - c));
-    let area = 0.25 * prod.max(0.0).sqrt();
-    let sq = [l[0] * l[0], l[1] * l[1], l[2] * l[2]];
-    let mut cot = [0.0; 3];
-    for i in 0..3 {
-        let num = sq[(i + 1) % 3] + sq[(i + 2) % 3] - sq[i];
-        cot[i] = if num == 0.0 { 0.0 } else { num / (4.0 * area) };
-    }
-    // A triangle with an extreme (or undefined) cotangent is left out as a whole, which keeps
-    // each triangle's contribution positive semi-definite.
-    let dropped = cot.iter().any(|c| c.is_nan() || c.abs() > COT_CLAMP);
-    if dropped {
-        cot = [0.0; 3];
-    }
-    let m = match mass {
-        MassKind::Barycentric => [area / 3.0; 3],
-        MassKind::Voronoi if dropped => [area / 3.0; 3],
-        MassKind::Voronoi => {
-            match (0..3).find(|&i| sq[(i + 1) % 3] + sq[(i + 2) % 3] - sq[i] < 0.0) {
-                Some(o) => {
-                    let mut m = [0.25 * area; 3];
-                    m[o] = 0.5 * area;
-                    m
-                }
-                None => {
-                    let mut m = [0.0; 3];
-                    for (i, mi) in m.iter_mut().enumerate() {
-                        let (j, k) = ((i + 1) % 3, (i + 2) % 3);
-                        *mi = (sq[k] * cot[k] + sq[j] * cot[j]) / 8.0;
-                    }
-                    m
-                }
-            }
-        }
-    };
-    (cot, m)
 }
 
 impl CotanAssembler {
@@ -172,8 +98,8 @@ impl CotanAssembler {
         mass: &mut [f64],
         par: Par,
     ) {
-        let lens = par.map_collect(tris.len(), |f| lengths(x, tris[f]));
-        let delta = mollify_delta(&lens, self.opts.mollify);
+        let lens = par.map_collect(tris.len(), |f| triangle_lengths(x, tris[f]));
+        let delta = mollify_delta_of_lengths(&lens, self.opts.mollify);
         let kind = self.opts.mass;
         let terms = par.map_collect(tris.len(), |f| {
             let l = lens[f];
@@ -183,16 +109,16 @@ impl CotanAssembler {
         vals.iter_mut().for_each(|v| *v = 0.0);
         mass.iter_mut().for_each(|v| *v = 0.0);
         // Face order, then corner order: the order in which the triplet assembly sums.
-        for ((t, (cot, m)), s) in tris.iter().zip(&terms).zip(&self.slots) {
+        for ((t, ft), s) in tris.iter().zip(&terms).zip(&self.slots) {
             for i in 0..3 {
-                let w = 0.5 * cot[i];
+                let w = 0.5 * ft.cot[i];
                 vals[s[4 * i]] += -w;
                 vals[s[4 * i + 1]] += -w;
                 vals[s[4 * i + 2]] += w;
                 vals[s[4 * i + 3]] += w;
             }
             for i in 0..3 {
-                mass[t[i] as usize] += m[i];
+                mass[t[i] as usize] += ft.mass[i];
             }
         }
     }
@@ -201,8 +127,8 @@ impl CotanAssembler {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sparse::laplacian_and_mass;
     use crestflow_geom::shapes::ellipsoid;
-    use crestflow_nodes_spectral::sparse::laplacian_and_mass;
 
     #[test]
     fn equals_the_spectral_operator_bit_for_bit() {
