@@ -4,36 +4,11 @@
 
 mod common;
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::path::Path;
 
+use common::cli::{json_lines, mesh, run};
 use common::{tempdir, write};
 use serde_json::Value as Json;
-
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_crestflow"))
-}
-
-fn mesh(rel: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/data/meshes")
-        .join(rel)
-}
-
-fn run(args: &[&str], cwd: &Path) -> Output {
-    bin()
-        .args(args)
-        .current_dir(cwd)
-        .output()
-        .expect("the binary runs")
-}
-
-fn json_lines(out: &Output) -> Vec<Json> {
-    String::from_utf8_lossy(&out.stdout)
-        .lines()
-        .map(|l| serde_json::from_str(l).unwrap_or_else(|e| panic!("not JSON: {l}: {e}")))
-        .collect()
-}
 
 /// The vertex count in an OFF file's header.
 fn off_vertices(p: &Path) -> f64 {

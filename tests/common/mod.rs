@@ -5,6 +5,8 @@
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
+pub mod cli;
+
 use crestflow_flow::{
     check_range, CancelToken, Ctx, Event, Inputs, NodeError, NodeKind, Outputs, ParamIssue, Port,
     Registry, Report, RunOptions, RunSummary, Status, Validate,
