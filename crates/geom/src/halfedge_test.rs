@@ -1,0 +1,305 @@
+//! Unit tests of `halfedge.rs`.
+
+use super::*;
+use crate::shapes;
+
+/// An n × n grid of the unit square (boundary), split along alternating diagonals.
+fn grid(n: usize) -> TriMesh {
+    let mut p = Vec::new();
+    for j in 0..=n {
+        for i in 0..=n {
+            p.push([i as f64 / n as f64, j as f64 / n as f64, 0.0]);
+        }
+    }
+    let id = |i: usize, j: usize| (j * (n + 1) + i) as u32;
+    let mut t = Vec::new();
+    for j in 0..n {
+        for i in 0..n {
+            let (a, b, c, d) = (id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1));
+            if (i + j) % 2 == 0 {
+                t.push([a, b, c]);
+                t.push([a, c, d]);
+            } else {
+                t.push([a, b, d]);
+                t.push([b, c, d]);
+            }
+        }
+    }
+    TriMesh::new(p, t)
+}
+
+fn euler_of(m: &TriMesh) -> i64 {
+    m.n_vertices() as i64 - m.topology().edges.len() as i64 + m.n_faces() as i64
+}
+
+#[test]
+fn builds_and_round_trips() {
+    let s = shapes::sphere(1.0, 2).unwrap();
+    let he = HalfEdgeMesh::from_trimesh(&s).unwrap();
+    he.check().unwrap();
+    assert_eq!(he.euler_characteristic(), 2);
+    let (back, map) = he.to_trimesh();
+    assert_eq!(back, s);
+    assert!(map.iter().enumerate().all(|(i, &m)| m == i as u32));
+    for v in 0..s.n_vertices() as u32 {
+        assert_eq!(he.valence(v), s.topology().neighbors(v).len());
+        assert!(!he.is_boundary_vertex(v));
+    }
+    let g = grid(3);
+    let he = HalfEdgeMesh::from_trimesh(&g).unwrap();
+    he.check().unwrap();
+    assert_eq!(he.euler_characteristic(), 1);
+    for v in 0..g.n_vertices() as u32 {
+        assert_eq!(he.valence(v), g.topology().neighbors(v).len(), "vertex {v}");
+        assert_eq!(
+            he.is_boundary_vertex(v),
+            g.topology().is_boundary_vertex[v as usize]
+        );
+        let mut nb = he.neighbors(v);
+        nb.sort_unstable();
+        assert_eq!(nb, g.topology().neighbors(v));
+    }
+}
+
+#[test]
+fn rejects_bad_input() {
+    let p = vec![
+        [0.0; 3],
+        [1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [0.0, 0.0, 1.0],
+        [0.0, -1.0, 0.0],
+    ];
+    let three = TriMesh::new(p.clone(), vec![[0, 1, 2], [1, 0, 3], [0, 1, 4]]);
+    assert_eq!(
+        HalfEdgeMesh::from_trimesh(&three).unwrap_err(),
+        HalfEdgeError::NonManifoldEdge {
+            a: 0,
+            b: 1,
+            faces: [0, 1]
+        }
+    );
+    let flipped = TriMesh::new(p.clone(), vec![[0, 1, 2], [0, 1, 3]]);
+    assert!(matches!(
+        HalfEdgeMesh::from_trimesh(&flipped).unwrap_err(),
+        HalfEdgeError::InconsistentOrientation { a: 0, b: 1, .. }
+    ));
+    let bad = TriMesh::new(p.clone(), vec![[0, 1, 9]]);
+    assert_eq!(
+        HalfEdgeMesh::from_trimesh(&bad).unwrap_err(),
+        HalfEdgeError::IndexOutOfRange {
+            face: 0,
+            index: 9,
+            n_vertices: 5
+        }
+    );
+    let degenerate = TriMesh::new(p.clone(), vec![[0, 1, 2], [3, 3, 4]]);
+    assert!(matches!(
+        HalfEdgeMesh::from_trimesh(&degenerate).unwrap_err(),
+        HalfEdgeError::DegenerateFace { face: 1, .. }
+    ));
+    // Two triangles touching at vertex 0 only: a bow tie.
+    let mut q = p.clone();
+    q.push([-1.0, 0.0, 0.0]);
+    q.push([0.0, 0.0, -1.0]);
+    let bowtie = TriMesh::new(q, vec![[0, 1, 2], [0, 5, 6]]);
+    assert!(matches!(
+        HalfEdgeMesh::from_trimesh(&bowtie).unwrap_err(),
+        HalfEdgeError::NonManifoldVertex { vertex: 0, .. }
+    ));
+}
+
+#[test]
+fn split_interior_and_boundary() {
+    let g = grid(2);
+    let mut he = HalfEdgeMesh::from_trimesh(&g).unwrap();
+    let h = he.find_edge(1, 4); // interior edge (1 = (0.5, 0), 4 = centre)
+    assert!(!he.is_boundary_edge(h));
+    he.set_tag(h, 7);
+    let m = he.split_edge(h, [0.5, 0.25, 0.0]);
+    he.check().unwrap();
+    assert_eq!(he.euler_characteristic(), 1);
+    assert_eq!(he.n_live_faces(), g.n_faces() + 2);
+    assert_eq!(he.valence(m), 4);
+    assert_eq!(he.tag(he.find_edge(m, 1)), 7);
+    assert_eq!(he.tag(he.find_edge(m, 4)), 7);
+    assert!(he.find_edge(1, 4) == NONE);
+    // A boundary edge.
+    let hb = he.find_edge(0, 1);
+    let hb = if he.is_boundary_edge(hb) {
+        hb
+    } else {
+        he.opp(hb)
+    };
+    assert!(he.is_boundary_edge(hb));
+    let n = he.split_edge(hb, [0.25, 0.0, 0.0]);
+    he.check().unwrap();
+    assert_eq!(he.euler_characteristic(), 1);
+    assert!(he.is_boundary_vertex(n));
+    assert_eq!(he.valence(n), 3);
+    let (t, _) = he.to_trimesh();
+    assert!((t.total_area() - 1.0).abs() < 1e-12);
+    assert_eq!(t.topology().boundary_edge_count(), 9);
+}
+
+#[test]
+fn flip_keeps_invariants_and_refuses_bad_flips() {
+    let s = shapes::sphere(1.0, 1).unwrap();
+    let mut he = HalfEdgeMesh::from_trimesh(&s).unwrap();
+    let h = 0;
+    let (a, b) = (he.from(h), he.to(h));
+    let (va, vb) = (he.valence(a), he.valence(b));
+    let c = he.from(prev(h));
+    let d = he.from(prev(he.opp(h)));
+    let (vc, vd) = (he.valence(c), he.valence(d));
+    assert!(he.flip_ok(h));
+    let k = he.flip(h);
+    he.check().unwrap();
+    assert_eq!(he.euler_characteristic(), 2);
+    assert_eq!([he.from(k), he.to(k)], [c, d]);
+    assert_eq!(
+        [he.valence(a), he.valence(b), he.valence(c), he.valence(d)],
+        [va - 1, vb - 1, vc + 1, vd + 1]
+    );
+    assert_eq!(he.find_edge(a, b), NONE);
+    // Flipping back restores the same vertex sets of faces.
+    assert!(he.flip_ok(k));
+    he.flip(k);
+    he.check().unwrap();
+    assert_ne!(he.find_edge(a, b), NONE);
+    // Boundary edges and planar configurations that would fold are refused.
+    let g = grid(2);
+    let he = HalfEdgeMesh::from_trimesh(&g).unwrap();
+    let hb = he.find_edge(0, 1);
+    let hb = if he.is_boundary_edge(hb) {
+        hb
+    } else {
+        he.opp(hb)
+    };
+    assert!(!he.flip_ok(hb));
+    // Diagonal 0–4 of the convex corner square: allowed.
+    let d = he.find_edge(0, 4);
+    assert!(he.flip_ok(d));
+    // Square (4, 5, 8, 7) with diagonal 4–8: with 4 moved to (0.9, 0.9) the quad is no
+    // longer convex and the flipped triangle (7, 8, 5) would turn over.
+    let mut he3 = he.clone();
+    he3.set_position(4, [0.9, 0.9, 0.0]);
+    let f = he3.find_edge(4, 8);
+    assert!(!he3.flip_ok(f));
+    he3.set_position(4, [0.5, 0.5, 0.0]);
+    assert!(he3.flip_ok(f));
+}
+
+#[test]
+fn collapse_keeps_invariants() {
+    let s = shapes::sphere(1.0, 2).unwrap();
+    let mut he = HalfEdgeMesh::from_trimesh(&s).unwrap();
+    let mut collapsed = 0;
+    for h in 0..he.n_halfedge_slots() as u32 {
+        if collapsed == 20 {
+            break;
+        }
+        if !he.is_halfedge_alive(h) {
+            continue;
+        }
+        let p = he.position(he.to(h));
+        if he.collapse_ok(h, p, 1.5).is_ok() {
+            let (a, b) = (he.from(h), he.to(h));
+            let expect = he.valence(a) + he.valence(b) - 4;
+            he.collapse(h);
+            he.check().unwrap();
+            assert!(!he.is_vertex_alive(a));
+            assert_eq!(he.valence(b), expect);
+            assert_eq!(he.euler_characteristic(), 2);
+            collapsed += 1;
+        }
+    }
+    assert_eq!(collapsed, 20);
+    let before = he.to_trimesh().0;
+    let h = (0..he.n_halfedge_slots() as u32)
+        .rev()
+        .find(|&h| he.is_halfedge_alive(h))
+        .unwrap();
+    let (a, b) = (he.from(h), he.to(h));
+    he.set_tag(h, 42);
+    let map = he.compact();
+    let k = he.find_edge(map[a as usize], map[b as usize]);
+    assert_eq!(he.tag(k), 42);
+    he.check().unwrap();
+    assert_eq!(he.n_vertex_slots(), s.n_vertices() - 20);
+    assert_eq!(he.n_halfedge_slots(), 3 * (s.n_faces() - 40));
+    assert_eq!(map.iter().filter(|&&m| m == NONE).count(), 20);
+    assert_eq!(he.to_trimesh().0, before);
+    let (t, _) = he.to_trimesh();
+    assert_eq!(t.n_vertices(), s.n_vertices() - 20);
+    assert_eq!(t.n_faces(), s.n_faces() - 40);
+    assert_eq!(euler_of(&t), 2);
+    assert!(t.topology().nonmanifold_edges.is_empty());
+}
+
+#[test]
+fn collapse_on_boundary_and_link_condition() {
+    let g = grid(3);
+    let mut he = HalfEdgeMesh::from_trimesh(&g).unwrap();
+    // Boundary edge 1→2 along the bottom side.
+    let h = he.find_edge(1, 2);
+    let h = if he.is_boundary_edge(h) { h } else { he.opp(h) };
+    let (a, b) = (he.from(h), he.to(h));
+    he.set_tag(h, 3);
+    assert!(he.collapse_ok(h, he.position(b), 1.5).is_ok());
+    he.collapse(h);
+    he.check().unwrap();
+    assert_eq!(he.euler_characteristic(), 1);
+    assert!(he.is_boundary_vertex(b) && !he.is_vertex_alive(a));
+    let (t, _) = he.to_trimesh();
+    assert_eq!(t.topology().boundary_edge_count(), 11);
+    // Interior edge joining two boundary vertices: refused (would pinch).
+    let g = grid(1);
+    let he = HalfEdgeMesh::from_trimesh(&g).unwrap();
+    let diag = he.find_edge(0, 3);
+    assert_eq!(
+        he.collapse_topology_ok(diag),
+        Err(CollapseRejection::BoundaryPinch)
+    );
+    // Tetrahedron: every collapse would leave a doubled triangle.
+    let tet = TriMesh::new(
+        vec![[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+        vec![[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]],
+    );
+    let he = HalfEdgeMesh::from_trimesh(&tet).unwrap();
+    for h in 0..12 {
+        assert!(he.collapse_topology_ok(h).is_err());
+    }
+    // Link condition: in a triangular bipyramid (apexes 3, 4 over the triangle 0, 1, 2)
+    // the ends of edge 0–1 share vertex 2 besides the apexes: refused. Edge 3–0 passes.
+    let bip = TriMesh::new(
+        vec![
+            [1.0, 0.0, 0.0],
+            [-0.5, 0.8, 0.0],
+            [-0.5, -0.8, 0.0],
+            [0.0, 0.0, 1.0],
+            [0.0, 0.0, -1.0],
+        ],
+        vec![
+            [3, 0, 1],
+            [3, 1, 2],
+            [3, 2, 0],
+            [4, 1, 0],
+            [4, 2, 1],
+            [4, 0, 2],
+        ],
+    );
+    let he = HalfEdgeMesh::from_trimesh(&bip).unwrap();
+    he.check().unwrap();
+    assert_eq!(
+        he.collapse_topology_ok(he.find_edge(0, 1)),
+        Err(CollapseRejection::LinkCondition)
+    );
+    let mut he = he;
+    let h = he.find_edge(3, 0);
+    assert_eq!(he.collapse_topology_ok(h), Ok(()));
+    he.collapse(h);
+    he.check().unwrap();
+    assert_eq!(he.n_live_faces(), 4);
+    assert_eq!(he.euler_characteristic(), 2);
+}

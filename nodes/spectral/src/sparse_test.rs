@@ -1,0 +1,205 @@
+//! Unit tests of `sparse.rs`.
+
+use super::*;
+use crestflow_geom::shapes::sphere;
+
+fn right_triangle() -> TriMesh {
+    TriMesh::new(
+        vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+        vec![[0, 1, 2]],
+    )
+}
+
+#[test]
+fn triplets_sum_duplicates_and_check_input() {
+    let m = CsrMatrix::from_triplets(2, 3, &[(1, 2, 1.0), (0, 1, 2.0), (1, 2, 0.5)]).unwrap();
+    assert_eq!(m.nnz(), 2);
+    assert_eq!(m.get(1, 2), 1.5);
+    assert_eq!(m.get(0, 1), 2.0);
+    assert_eq!(m.get(0, 0), 0.0);
+    assert_eq!(m.transpose().get(2, 1), 1.5);
+    assert_eq!(
+        CsrMatrix::from_triplets(2, 2, &[(2, 0, 1.0)]),
+        Err(SparseError::IndexOutOfRange {
+            row: 2,
+            col: 0,
+            nrows: 2,
+            ncols: 2
+        })
+    );
+    assert!(matches!(
+        CsrMatrix::from_triplets(2, 2, &[(0, 1, f64::NAN)]),
+        Err(SparseError::NonFinite { row: 0, col: 1, .. })
+    ));
+    assert!(matches!(
+        CsrMatrix::from_raw(2, 2, vec![0, 1, 1], vec![5], vec![1.0]),
+        Err(SparseError::IndexOutOfRange { row: 0, col: 5, .. })
+    ));
+}
+
+#[test]
+fn right_triangle_weights_and_voronoi_mass() {
+    // Angles 90° at vertex 0 and 45° at 1 and 2: cot = 0, 1, 1.
+    let m = right_triangle();
+    let l = cotan_laplacian(&m).unwrap();
+    let expected = [[1.0, -0.5, -0.5], [-0.5, 0.5, 0.0], [-0.5, 0.0, 0.5]];
+    for (i, row) in expected.iter().enumerate() {
+        for (j, &e) in row.iter().enumerate() {
+            assert!(
+                (l.get(i, j) - e).abs() < 1e-12,
+                "L[{i}][{j}] = {}",
+                l.get(i, j)
+            );
+        }
+    }
+    let mass = lumped_mass(&m).unwrap();
+    for (got, want) in mass.iter().zip([0.25, 0.125, 0.125]) {
+        assert!((got - want).abs() < 1e-12, "{mass:?}");
+    }
+    // An obtuse triangle: half the area to the obtuse corner, a quarter to the others.
+    let obtuse = TriMesh::new(
+        vec![[0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [1.0, 0.2, 0.0]],
+        vec![[0, 1, 2]],
+    );
+    let mass = lumped_mass(&obtuse).unwrap();
+    for (got, want) in mass.iter().zip([0.05, 0.05, 0.1]) {
+        assert!((got - want).abs() < 1e-12, "{mass:?}");
+    }
+}
+
+#[test]
+fn sphere_operator_properties() {
+    let mesh = sphere(1.0, 4).unwrap();
+    let (l, m) = laplacian_and_mass(&mesh, &LaplacianOptions::default(), Par::Seq).unwrap();
+    assert!(l.asymmetry() < 1e-14);
+    for i in 0..l.nrows() {
+        let s: f64 = l.row(i).map(|(_, v)| v).sum();
+        assert!(s.abs() < 1e-12, "row {i} sums to {s}");
+    }
+    // Both lumpings partition the area.
+    let area = mesh.total_area();
+    assert!((m.iter().sum::<f64>() - area).abs() < 1e-10 * area);
+    let bary = LaplacianOptions {
+        mass: MassKind::Barycentric,
+        ..Default::default()
+    };
+    let (_, mb) = laplacian_and_mass(&mesh, &bary, Par::Seq).unwrap();
+    assert!((mb.iter().sum::<f64>() - area).abs() < 1e-10 * area);
+    // −Δx = 2x on the unit sphere: L x ≈ 2 M x for each coordinate function.
+    for c in 0..3 {
+        let x: Vec<f64> = mesh.positions.iter().map(|p| p[c]).collect();
+        let mut lx = vec![0.0; x.len()];
+        l.mul_vec(&x, &mut lx, Par::Seq).unwrap();
+        let num: f64 = lx
+            .iter()
+            .zip(&x)
+            .zip(&m)
+            .map(|((a, b), w)| (a - 2.0 * w * b).powi(2))
+            .sum();
+        let den: f64 = x.iter().zip(&m).map(|(b, w)| (2.0 * w * b).powi(2)).sum();
+        assert!(
+            (num / den).sqrt() < 0.01,
+            "coordinate {c}: {}",
+            (num / den).sqrt()
+        );
+    }
+    // No near-degenerate triangle: mollification changes nothing.
+    let plain = LaplacianOptions {
+        mollify: 0.0,
+        ..Default::default()
+    };
+    let (l0, _) = laplacian_and_mass(&mesh, &plain, Par::Seq).unwrap();
+    assert_eq!(l0, l);
+    let (lr, mr) = laplacian_and_mass(&mesh, &LaplacianOptions::default(), Par::Rayon).unwrap();
+    assert_eq!((lr, mr), (l, m));
+}
+
+#[test]
+fn spd_solver_solves_refactors_and_reports() {
+    let mesh = sphere(1.0, 4).unwrap();
+    let (l, m) = laplacian_and_mass(&mesh, &LaplacianOptions::default(), Par::Seq).unwrap();
+    let n = m.len();
+    let a = l.add_diagonal(&m).unwrap();
+    let mut solver = SpdSolver::new(&a).unwrap();
+    let b: Vec<f64> = (0..n)
+        .map(|i| ((i * 7919) % 101) as f64 / 101.0 - 0.5)
+        .collect();
+    let residual = |a: &CsrMatrix, x: &[f64]| {
+        let mut ax = vec![0.0; n];
+        a.mul_vec(x, &mut ax, Par::Seq).unwrap();
+        ax.iter()
+            .zip(&b)
+            .map(|(p, q)| (p - q).abs())
+            .fold(0.0, f64::max)
+    };
+    let mut x = b.clone();
+    solver.solve_in_place(&mut x).unwrap();
+    assert!(residual(&a, &x) < 1e-10, "residual {}", residual(&a, &x));
+    // New values on the same pattern: L + 10 M.
+    let a2 = l
+        .add_scaled(1.0, &CsrMatrix::from_diagonal(&m).unwrap(), 10.0)
+        .unwrap();
+    solver.refactor(&a2).unwrap();
+    let mut x2 = b.clone();
+    solver.solve_in_place(&mut x2).unwrap();
+    assert!(residual(&a2, &x2) < 1e-10);
+    assert!(
+        residual(&a, &x2) > 1e-3,
+        "the refactorisation must change the solution"
+    );
+    // Many right-hand sides: every column solved, same bits with any Par.
+    let many: Vec<f64> = (0..n * 11).map(|i| b[i % n] * (1 + i / n) as f64).collect();
+    let mut s = many.clone();
+    let mut r = many.clone();
+    solver.solve_many(&mut s, 11, Par::Seq).unwrap();
+    solver.solve_many(&mut r, 11, Par::Rayon).unwrap();
+    assert_eq!(s, r);
+    for c in 0..11 {
+        let scale = (1 + c) as f64;
+        for i in 0..n {
+            assert!((s[c * n + i] - scale * x2[i]).abs() < 1e-9 * scale);
+        }
+    }
+    assert_eq!(
+        solver.solve_in_place(&mut [0.0; 3]),
+        Err(SparseError::DimensionMismatch {
+            what: "the right-hand side",
+            got: 3,
+            expected: n
+        })
+    );
+    // −I is not positive definite.
+    let neg = CsrMatrix::from_diagonal(&[-1.0, -1.0]).unwrap();
+    assert!(matches!(
+        SpdSolver::new(&neg),
+        Err(SparseError::NotPositiveDefinite { .. })
+    ));
+}
+
+#[test]
+fn bad_meshes_are_rejected_with_the_element() {
+    let mut m = right_triangle();
+    m.triangles.push([0, 1, 7]);
+    assert_eq!(
+        cotan_laplacian(&m),
+        Err(OperatorError::IndexOutOfRange {
+            face: 1,
+            index: 7,
+            n_vertices: 3
+        })
+    );
+    let mut m = right_triangle();
+    m.positions[2][1] = f64::INFINITY;
+    assert!(matches!(
+        lumped_mass(&m),
+        Err(OperatorError::NonFinitePosition { vertex: 2, .. })
+    ));
+    let empty = TriMesh::new(vec![[0.0; 3]], vec![]);
+    assert_eq!(cotan_laplacian(&empty), Err(OperatorError::NoTriangles));
+    let mut m = right_triangle();
+    m.triangles[0] = [0, 1, 1];
+    assert_eq!(
+        cotan_laplacian(&m),
+        Err(OperatorError::RepeatedVertex { face: 0, vertex: 1 })
+    );
+}
