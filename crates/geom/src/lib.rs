@@ -14,4 +14,4 @@ pub mod vec3;
 
 pub use curvature::CurvatureField;
 pub use fcn::{CurveLabel, FcnVertex, FeatureCurve, FeatureCurveNetwork, SurfacePoint};
-pub use mesh::{FaceId, Topology, TriMesh, VertexId};
+pub use mesh::{FaceId, MeshDefect, Topology, TriMesh, VertexId};

@@ -196,6 +196,20 @@ impl Topology {
     }
 }
 
+/// What [`TriMesh::check_data`] finds wrong with a mesh built outside the loaders (which
+/// validate already). Algorithms map it into their own error type.
+#[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
+pub enum MeshDefect {
+    #[error("vertex {vertex} has a non-finite coordinate {position:?}")]
+    NonFinitePosition { vertex: usize, position: V3 },
+    #[error("face {face} references vertex {index} but the mesh has {n_vertices} vertices")]
+    IndexOutOfRange {
+        face: usize,
+        index: u32,
+        n_vertices: usize,
+    },
+}
+
 /// A triangle mesh: positions and triangles (counter-clockwise seen from outside), with
 /// connectivity built on first use.
 #[derive(Debug, Default, Serialize, Deserialize)]
@@ -233,6 +247,29 @@ impl TriMesh {
     }
     pub fn n_faces(&self) -> usize {
         self.triangles.len()
+    }
+    /// The first non-finite position, else the first face index out of range. Every algorithm
+    /// that indexes positions through triangles relies on this.
+    pub fn check_data(&self) -> Result<(), MeshDefect> {
+        for (vertex, p) in self.positions.iter().enumerate() {
+            if !p.iter().all(|c| c.is_finite()) {
+                return Err(MeshDefect::NonFinitePosition {
+                    vertex,
+                    position: *p,
+                });
+            }
+        }
+        let n = self.positions.len();
+        for (face, t) in self.triangles.iter().enumerate() {
+            if let Some(&index) = t.iter().find(|&&i| i as usize >= n) {
+                return Err(MeshDefect::IndexOutOfRange {
+                    face,
+                    index,
+                    n_vertices: n,
+                });
+            }
+        }
+        Ok(())
     }
     /// Connectivity, built on first call.
     pub fn topology(&self) -> &Topology {
@@ -392,6 +429,26 @@ mod tests {
         // The normal at the origin corner points into the negative octant.
         let n = m.vertex_normals()[0];
         assert!(n.iter().all(|&c| c < 0.0));
+    }
+
+    #[test]
+    fn check_data_names_the_first_defect() {
+        let mut m = tetra();
+        assert_eq!(m.check_data(), Ok(()));
+        m.triangles[2] = [0, 9, 2];
+        assert_eq!(
+            m.check_data(),
+            Err(MeshDefect::IndexOutOfRange {
+                face: 2,
+                index: 9,
+                n_vertices: 4
+            })
+        );
+        m.positions[1][2] = f64::NAN;
+        assert!(matches!(
+            m.check_data(),
+            Err(MeshDefect::NonFinitePosition { vertex: 1, .. })
+        ));
     }
 
     #[test]

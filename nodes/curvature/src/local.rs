@@ -5,7 +5,7 @@ use std::cell::RefCell;
 
 use crestflow_geom::mesh::Topology;
 use crestflow_geom::vec3::{self, V3};
-use crestflow_geom::TriMesh;
+use crestflow_geom::{MeshDefect, TriMesh};
 
 /// Why a mesh cannot be processed by a curvature estimator.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -23,27 +23,20 @@ pub enum MeshInputError {
 /// Checks what the estimators rely on: triangle indices in range and finite positions.
 /// (Meshes from the loaders are validated already; meshes built in code may not be.)
 pub fn check_mesh(mesh: &TriMesh) -> Result<(), MeshInputError> {
-    let n = mesh.n_vertices();
-    for (face, t) in mesh.triangles.iter().enumerate() {
-        for &index in t {
-            if index as usize >= n {
-                return Err(MeshInputError::IndexOutOfRange {
-                    face,
-                    index,
-                    n_vertices: n,
-                });
-            }
+    mesh.check_data().map_err(|d| match d {
+        MeshDefect::NonFinitePosition { vertex, position } => {
+            MeshInputError::NonFinite { vertex, position }
         }
-    }
-    for (vertex, p) in mesh.positions.iter().enumerate() {
-        if !p.iter().all(|c| c.is_finite()) {
-            return Err(MeshInputError::NonFinite {
-                vertex,
-                position: *p,
-            });
-        }
-    }
-    Ok(())
+        MeshDefect::IndexOutOfRange {
+            face,
+            index,
+            n_vertices,
+        } => MeshInputError::IndexOutOfRange {
+            face,
+            index,
+            n_vertices,
+        },
+    })
 }
 
 /// Unit vertex normals weighted by face area (the sum of the incident faces' cross

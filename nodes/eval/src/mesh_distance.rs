@@ -23,7 +23,7 @@ use crestflow_flow::{
     Report, Validate,
 };
 use crestflow_geom::vec3::V3;
-use crestflow_geom::TriMesh;
+use crestflow_geom::{MeshDefect, TriMesh};
 
 /// Re-exported: the BVH and the point-triangle distance live in `crestflow_geom::bvh`.
 pub use crestflow_geom::bvh::{closest_point_on_triangle, ClosestPoint, TriangleBvh};
@@ -89,25 +89,23 @@ pub fn check_mesh(mesh: &TriMesh, name: &'static str) -> Result<(), MeshDistance
             vertices: n,
         });
     }
-    for (face, t) in mesh.triangles.iter().enumerate() {
-        if let Some(&index) = t.iter().find(|&&i| i as usize >= n) {
-            return Err(MeshDistanceError::IndexOutOfRange {
-                mesh: name,
-                face,
-                index,
-                n_vertices: n,
-            });
-        }
-    }
-    for (vertex, p) in mesh.positions.iter().enumerate() {
-        if !p.iter().all(|c| c.is_finite()) {
-            return Err(MeshDistanceError::NonFinite {
-                mesh: name,
-                vertex,
-                position: *p,
-            });
-        }
-    }
+    mesh.check_data().map_err(|d| match d {
+        MeshDefect::NonFinitePosition { vertex, position } => MeshDistanceError::NonFinite {
+            mesh: name,
+            vertex,
+            position,
+        },
+        MeshDefect::IndexOutOfRange {
+            face,
+            index,
+            n_vertices,
+        } => MeshDistanceError::IndexOutOfRange {
+            mesh: name,
+            face,
+            index,
+            n_vertices,
+        },
+    })?;
     // Written so that a NaN area is rejected too.
     let area = mesh.total_area();
     if area.is_nan() || area <= 0.0 {

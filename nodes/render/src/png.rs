@@ -15,7 +15,7 @@ use crestflow_flow::{
     Validate,
 };
 use crestflow_geom::vec3::{self, V3};
-use crestflow_geom::{CurvatureField, CurveLabel, FeatureCurveNetwork, TriMesh};
+use crestflow_geom::{CurvatureField, CurveLabel, FeatureCurveNetwork, MeshDefect, TriMesh};
 use serde::{Deserialize, Serialize};
 
 use crate::raster::{
@@ -192,23 +192,20 @@ pub fn render(
     if mesh.n_faces() == 0 {
         return Err(RenderError::EmptyMesh);
     }
-    for (vertex, p) in mesh.positions.iter().enumerate() {
-        if !p.iter().all(|c| c.is_finite()) {
-            return Err(RenderError::NonFinitePosition {
-                vertex,
-                position: *p,
-            });
+    mesh.check_data().map_err(|d| match d {
+        MeshDefect::NonFinitePosition { vertex, position } => {
+            RenderError::NonFinitePosition { vertex, position }
         }
-    }
-    for (face, t) in mesh.triangles.iter().enumerate() {
-        if let Some(&index) = t.iter().find(|&&i| i as usize >= nv) {
-            return Err(RenderError::FaceIndex {
-                face,
-                index,
-                n_vertices: nv,
-            });
-        }
-    }
+        MeshDefect::IndexOutOfRange {
+            face,
+            index,
+            n_vertices,
+        } => RenderError::FaceIndex {
+            face,
+            index,
+            n_vertices,
+        },
+    })?;
     if let Some(k) = curvature {
         if k.len() != nv || k.k_min.len() != nv {
             return Err(RenderError::FieldSize {

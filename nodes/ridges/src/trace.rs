@@ -29,7 +29,7 @@ use crestflow_flow::{
 };
 use crestflow_geom::vec3::{self, V3};
 use crestflow_geom::{
-    CurvatureField, CurveLabel, FcnVertex, FeatureCurve, FeatureCurveNetwork, TriMesh,
+    CurvatureField, CurveLabel, FcnVertex, FeatureCurve, FeatureCurveNetwork, MeshDefect, TriMesh,
 };
 use serde::{Deserialize, Serialize};
 
@@ -262,23 +262,20 @@ pub fn trace(
 
 fn check_inputs(mesh: &TriMesh, field: &CurvatureField) -> Result<(), TraceError> {
     let n = mesh.n_vertices();
-    for (vertex, p) in mesh.positions.iter().enumerate() {
-        if !p.iter().all(|c| c.is_finite()) {
-            return Err(TraceError::NonFinitePosition {
-                vertex,
-                position: *p,
-            });
+    mesh.check_data().map_err(|d| match d {
+        MeshDefect::NonFinitePosition { vertex, position } => {
+            TraceError::NonFinitePosition { vertex, position }
         }
-    }
-    for (face, t) in mesh.triangles.iter().enumerate() {
-        if let Some(&index) = t.iter().find(|&&i| i as usize >= n) {
-            return Err(TraceError::FaceIndex {
-                face,
-                index,
-                n_vertices: n,
-            });
-        }
-    }
+        MeshDefect::IndexOutOfRange {
+            face,
+            index,
+            n_vertices,
+        } => TraceError::FaceIndex {
+            face,
+            index,
+            n_vertices,
+        },
+    })?;
     let scalars: [(&'static str, &[f64]); 4] = [
         ("k_max", &field.k_max),
         ("k_min", &field.k_min),

@@ -41,7 +41,7 @@ use crestflow_flow::{
     Report, Validate,
 };
 use crestflow_geom::vec3::{self, V3};
-use crestflow_geom::{FeatureCurveNetwork, TriMesh};
+use crestflow_geom::{FeatureCurveNetwork, MeshDefect, TriMesh};
 use crestflow_nodes_spectral::sparse::{
     CsrMatrix, MassKind, OperatorError, SparseError, SpdSolver,
 };
@@ -226,22 +226,21 @@ fn check_mesh(mesh: &TriMesh) -> Result<(), SmoothError> {
     if mesh.n_faces() == 0 {
         return Err(SmoothError::NoFaces { vertices: n });
     }
-    for (vertex, p) in mesh.positions.iter().enumerate() {
-        if !p.iter().all(|c| c.is_finite()) {
-            return Err(SmoothError::NonFinite {
-                vertex,
-                position: *p,
-            });
+    mesh.check_data().map_err(|d| match d {
+        MeshDefect::NonFinitePosition { vertex, position } => {
+            SmoothError::NonFinite { vertex, position }
         }
-    }
+        MeshDefect::IndexOutOfRange {
+            face,
+            index,
+            n_vertices,
+        } => SmoothError::IndexOutOfRange {
+            face,
+            index,
+            n_vertices,
+        },
+    })?;
     for (face, t) in mesh.triangles.iter().enumerate() {
-        if let Some(&index) = t.iter().find(|&&i| i as usize >= n) {
-            return Err(SmoothError::IndexOutOfRange {
-                face,
-                index,
-                n_vertices: n,
-            });
-        }
         if t[0] == t[1] || t[0] == t[2] || t[1] == t[2] {
             let vertex = if t[0] == t[1] || t[0] == t[2] {
                 t[0]

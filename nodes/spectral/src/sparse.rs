@@ -39,7 +39,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crestflow_flow::Par;
-use crestflow_geom::TriMesh;
+use crestflow_geom::{MeshDefect, TriMesh};
 
 /// Largest absolute cotangent a triangle may have to enter the Laplacian (an angle of about
 /// 1e-8 rad); beyond it the triangle is left out of `L` (module docs).
@@ -562,23 +562,21 @@ fn check_mesh(mesh: &TriMesh, opts: &LaplacianOptions) -> Result<(), OperatorErr
     if mesh.triangles.is_empty() {
         return Err(OperatorError::NoTriangles);
     }
-    let n = mesh.n_vertices();
-    for (vertex, p) in mesh.positions.iter().enumerate() {
-        if !p.iter().all(|c| c.is_finite()) {
-            return Err(OperatorError::NonFinitePosition {
-                vertex,
-                position: *p,
-            });
+    mesh.check_data().map_err(|d| match d {
+        MeshDefect::NonFinitePosition { vertex, position } => {
+            OperatorError::NonFinitePosition { vertex, position }
         }
-    }
+        MeshDefect::IndexOutOfRange {
+            face,
+            index,
+            n_vertices,
+        } => OperatorError::IndexOutOfRange {
+            face,
+            index,
+            n_vertices,
+        },
+    })?;
     for (face, t) in mesh.triangles.iter().enumerate() {
-        if let Some(&index) = t.iter().find(|&&i| i as usize >= n) {
-            return Err(OperatorError::IndexOutOfRange {
-                face,
-                index,
-                n_vertices: n,
-            });
-        }
         if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
             let vertex = if t[0] == t[1] || t[0] == t[2] {
                 t[0]
