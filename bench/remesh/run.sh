@@ -1,10 +1,14 @@
 #!/usr/bin/env bash
-# Isotropic remeshing against pymeshlab and gpytoolbox on the same meshes in the same run, at
-# 1 % and 2 % of the bounding-box diagonal (10 rounds, edges sharper than 30° kept). Run from
+# Isotropic remeshing against pymeshlab, gpytoolbox and CGAL on the same meshes in the same run,
+# at 1 % and 2 % of the bounding-box diagonal (10 rounds, edges sharper than 30° kept). Run from
 # the repository root:
 #
-#   python3 -m venv ../venv-peers && ../venv-peers/bin/pip install numpy scipy pymeshlab gpytoolbox
+#   python3 -m venv ../venv-peers && ../venv-peers/bin/pip install numpy scipy pymeshlab gpytoolbox cgal
 #   PYTHON=../venv-peers/bin/python bench/remesh/run.sh
+#
+# The default meshes are cgal_fandisk_large (CAD, 15.8k vertices), cgal_bunny00 (organic, 37.7k)
+# and cgal_armadillo subdivided once at edge midpoints (104k vertices; written to $OUT by
+# bench/remesh/subdivide.py).
 #
 # The Rust bench (release) remeshes and writes its outputs; bench/remesh/peer.py runs the peers
 # and grades every output with the same code (min angle, valence-6 share, pymeshlab Hausdorff,
@@ -14,8 +18,12 @@ set -euo pipefail
 PYTHON=${PYTHON:-python3}
 OUT=${OUT:-target/bench-remesh}
 TARGETS=${TARGETS:-1,2}
-MESHES=${MESHES:-"../shared/data/meshes/cad/cgal_fandisk_large.off ../shared/data/meshes/organic/cgal_bunny00.off"}
 mkdir -p "$OUT"
+if [ -z "${MESHES:-}" ]; then
+    [ -f "$OUT/armadillo_sub1.off" ] || "$PYTHON" bench/remesh/subdivide.py \
+        ../shared/data/meshes/organic/cgal_armadillo.off "$OUT/armadillo_sub1.off"
+    MESHES="../shared/data/meshes/cad/cgal_fandisk_large.off ../shared/data/meshes/organic/cgal_bunny00.off $OUT/armadillo_sub1.off"
+fi
 OUT=$(realpath "$OUT")  # cargo bench runs in the crate folder: pass absolute paths
 ABS=()
 for m in $MESHES; do ABS+=("$(realpath "$m")"); done

@@ -23,5 +23,8 @@ pub fn registry() -> Registry {
     crestflow_nodes_descriptors::register(&mut reg);
     crestflow_nodes_remesh::register(&mut reg);
     crestflow_nodes_spectral::register(&mut reg);
+    crestflow_nodes_selection::register(&mut reg);
+    crestflow_nodes_scale::register(&mut reg);
+    crestflow_nodes_fmap::register(&mut reg);
     reg
 }

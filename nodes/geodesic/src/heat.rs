@@ -338,12 +338,18 @@ impl HeatSolver {
         } else {
             let mut hd = heat_matrix.clone();
             pin_rows(&mut hd, &boundary);
-            Some(SpdSolver::new(&hd)?)
+            // Same pattern: the ordering and symbolic analysis are reused.
+            let mut solver = heat.clone();
+            solver.refactor(&hd)?;
+            Some(solver)
         };
 
         let mut lp = l.add_diagonal(&unref)?;
         pin_rows(&mut lp, &pins);
-        let poisson = SpdSolver::new(&lp)?;
+        // L + diag(unref) has the pattern of M + tL (L's rows hold their diagonal, the
+        // unreferenced vertices get one): reuse the analysis again.
+        let mut poisson = heat.clone();
+        poisson.refactor(&lp)?;
 
         let mut grads = Vec::with_capacity(mesh.n_faces());
         let mut areas = Vec::with_capacity(mesh.n_faces());
@@ -464,17 +470,28 @@ impl HeatSolver {
                     ud[s * n + b as usize] = 0.0;
                 }
             }
-            self.heat.solve_many(&mut u, m, par)?;
-            hd.solve_many(&mut ud, m, par)?;
+            // The two solves are independent: run them side by side.
+            let (ra, rb) = match par {
+                Par::Seq => (
+                    self.heat.solve_many(&mut u, m, par),
+                    hd.solve_many(&mut ud, m, par),
+                ),
+                Par::Rayon => rayon::join(
+                    || self.heat.solve_many(&mut u, m, par),
+                    || hd.solve_many(&mut ud, m, par),
+                ),
+            };
+            ra?;
+            rb?;
             u.iter_mut().zip(&ud).for_each(|(a, b)| *a = 0.5 * (*a + b));
         } else {
             self.heat.solve_many(&mut u, m, par)?;
         }
-        // 2.-3. normalised gradient and its divergence, one column per task.
-        let rhs: Vec<Vec<f64>> = par.map_collect(m, |s| self.divergence(&u[s * n..(s + 1) * n]));
-        let mut phi = Vec::with_capacity(n * m);
-        for col in rhs {
-            phi.extend(col);
+        // 2.-3. normalised gradient and its divergence: faces in parallel, each vertex's
+        // sum in face order (the same bits at any thread count).
+        let mut phi = vec![0.0; n * m];
+        for (s, col) in phi.chunks_mut(n).enumerate() {
+            self.divergence(&u[s * n..(s + 1) * n], col, par);
         }
         self.poisson.solve_many(&mut phi, m, par)?;
         // 4. shift per component
@@ -488,10 +505,13 @@ impl HeatSolver {
         v.pop().ok_or(HeatError::NoSources)
     }
 
-    /// `∫ X · ∇ψ_i` for `X = −∇u/|∇u|`, with pinned rows zeroed.
-    fn divergence(&self, u: &[f64]) -> Vec<f64> {
-        let mut b = vec![0.0; self.n];
-        for (f, t) in self.triangles.iter().enumerate() {
+    /// `b = ∫ X · ∇ψ_i` for `X = −∇u/|∇u|`, with pinned rows zeroed. The per-face terms are
+    /// computed in parallel (fixed pieces of faces) and added to `b` in face order.
+    fn divergence(&self, u: &[f64], b: &mut [f64], par: Par) {
+        const FACE_CHUNK: usize = 8192;
+        let nf = self.triangles.len();
+        let face_terms = |f: usize| -> [f64; 3] {
+            let t = self.triangles[f];
             let g = &self.grads[f];
             let mut grad = [0.0; 3];
             for i in 0..3 {
@@ -502,18 +522,29 @@ impl HeatSolver {
             }
             let len = norm(grad);
             if !(len > 0.0 && len.is_finite()) {
-                continue;
+                return [0.0; 3];
             }
             let x = scale(grad, -1.0 / len);
             let a = self.areas[f];
-            for i in 0..3 {
-                b[t[i] as usize] += a * dot(x, g[i]);
+            [a * dot(x, g[0]), a * dot(x, g[1]), a * dot(x, g[2])]
+        };
+        let parts: Vec<Vec<[f64; 3]>> = par.map_collect(nf.div_ceil(FACE_CHUNK), |c| {
+            (c * FACE_CHUNK..((c + 1) * FACE_CHUNK).min(nf))
+                .map(face_terms)
+                .collect()
+        });
+        b.iter_mut().for_each(|x| *x = 0.0);
+        for (c, part) in parts.iter().enumerate() {
+            for (j, terms) in part.iter().enumerate() {
+                let t = self.triangles[c * FACE_CHUNK + j];
+                for i in 0..3 {
+                    b[t[i] as usize] += terms[i];
+                }
             }
         }
         for &p in &self.pins {
             b[p as usize] = 0.0;
         }
-        b
     }
 
     fn shift(&self, phi: &[f64], src: &HeatSource) -> DistanceField {

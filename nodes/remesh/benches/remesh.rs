@@ -1,6 +1,7 @@
 //! Remeshing speed and output for the peer comparison (`bench/remesh/run.sh`).
 //!
 //!   cargo bench -p crestflow-nodes-remesh --bench remesh -- OUT_DIR MESH... [--targets 1,2]
+//!       [--feature-tolerance 0.002]
 //!
 //! For each mesh and target (percent of the bounding-box diagonal): the median of 3 runs of
 //! `remesh.isotropic` (default parameters: 10 rounds, sharp edges > 30° kept) at 1 thread
@@ -24,6 +25,13 @@ fn main() {
         .filter(|a| a != "--bench")
         .collect();
     let mut targets = vec![1.0, 2.0];
+    let mut feature_tolerance = IsotropicParams::default().feature_tolerance;
+    if let Some(i) = args.iter().position(|a| a == "--feature-tolerance") {
+        if let Some(t) = args.get(i + 1).and_then(|t| t.parse().ok()) {
+            feature_tolerance = t;
+        }
+        args.drain(i..(i + 2).min(args.len()));
+    }
     if let Some(i) = args.iter().position(|a| a == "--targets") {
         if i + 1 < args.len() {
             targets = args[i + 1]
@@ -57,6 +65,7 @@ fn main() {
         for &pct in &targets {
             let params = IsotropicParams {
                 target: pct / 100.0,
+                feature_tolerance,
                 ..Default::default()
             };
             let mut times = Vec::new();

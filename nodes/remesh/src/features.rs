@@ -268,6 +268,10 @@ pub struct Chains {
     pub edge_chain: Vec<u32>,
     /// Points of each chain in order (a closed chain repeats its first point at the end).
     pub points: Vec<Vec<V3>>,
+    /// Per input vertex inside a chain: its arc length from the chain's first point.
+    pub vertex_param: Vec<f64>,
+    /// Per chain: a loop without a corner (its parameter wraps around).
+    pub closed: Vec<bool>,
 }
 
 /// Splits the feature edges into chains; `corner_angle_deg` is the turning angle above which a
@@ -310,39 +314,49 @@ pub fn build_chains(mesh: &TriMesh, fe: &FeatureEdges, corner_angle_deg: f64) ->
         .collect();
     let mut edge_chain = vec![u32::MAX; topo.edges.len()];
     let mut vertex_chain = vec![u32::MAX; nv];
+    let mut vertex_param = vec![0.0; nv];
+    let mut closed = Vec::new();
     let mut points = Vec::new();
     // Walk from every corner along each of its feature edges, then the loops that remain.
-    let mut walk =
-        |start: u32, first: u32, edge_chain: &mut Vec<u32>, vertex_chain: &mut Vec<u32>| {
-            let id = points.len() as u32;
-            let mut pts = vec![p(start)];
-            let (mut v, mut e) = (start, first);
-            loop {
-                edge_chain[e as usize] = id;
-                let w = other(e, v);
-                pts.push(p(w));
-                if w == start || is_corner[w as usize] {
-                    break;
-                }
-                vertex_chain[w as usize] = id;
-                let es = &inc[w as usize];
-                let next = if es[0] == e { es[1] } else { es[0] };
-                if edge_chain[next as usize] != u32::MAX {
-                    break;
-                }
-                v = w;
-                e = next;
+    let mut walk = |start: u32,
+                    first: u32,
+                    edge_chain: &mut Vec<u32>,
+                    vertex_chain: &mut Vec<u32>,
+                    vertex_param: &mut Vec<f64>| {
+        let id = points.len() as u32;
+        let mut pts = vec![p(start)];
+        let (mut v, mut e) = (start, first);
+        let mut s = 0.0;
+        loop {
+            edge_chain[e as usize] = id;
+            let w = other(e, v);
+            s += vec3::dist(p(v), p(w));
+            pts.push(p(w));
+            if w == start || is_corner[w as usize] {
+                break;
             }
-            if !is_corner[start as usize] {
-                vertex_chain[start as usize] = id;
+            vertex_chain[w as usize] = id;
+            vertex_param[w as usize] = s;
+            let es = &inc[w as usize];
+            let next = if es[0] == e { es[1] } else { es[0] };
+            if edge_chain[next as usize] != u32::MAX {
+                break;
             }
-            points.push(pts);
-        };
+            v = w;
+            e = next;
+        }
+        if !is_corner[start as usize] {
+            vertex_chain[start as usize] = id;
+            vertex_param[start as usize] = 0.0;
+        }
+        closed.push(!is_corner[start as usize]);
+        points.push(pts);
+    };
     for v in 0..nv as u32 {
         if is_corner[v as usize] {
             for &e in &inc[v as usize].clone() {
                 if edge_chain[e as usize] == u32::MAX {
-                    walk(v, e, &mut edge_chain, &mut vertex_chain);
+                    walk(v, e, &mut edge_chain, &mut vertex_chain, &mut vertex_param);
                 }
             }
         }
@@ -351,7 +365,7 @@ pub fn build_chains(mesh: &TriMesh, fe: &FeatureEdges, corner_angle_deg: f64) ->
         if !is_corner[v as usize] && inc[v as usize].len() == 2 {
             let e = inc[v as usize][0];
             if edge_chain[e as usize] == u32::MAX {
-                walk(v, e, &mut edge_chain, &mut vertex_chain);
+                walk(v, e, &mut edge_chain, &mut vertex_chain, &mut vertex_param);
             }
         }
     }
@@ -360,6 +374,8 @@ pub fn build_chains(mesh: &TriMesh, fe: &FeatureEdges, corner_angle_deg: f64) ->
         vertex_chain,
         edge_chain,
         points,
+        vertex_param,
+        closed,
     }
 }
 

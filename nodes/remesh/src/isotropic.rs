@@ -5,13 +5,20 @@
 //!
 //! Each of `iterations` rounds, at target edge length L:
 //! 1. split every edge longer than 4/3 L at its midpoint (repeated until none is left);
-//! 2. collapse every edge shorter than 4/5 L (into its midpoint when both ends are alike)
-//!    unless that creates an edge longer than 4/3 L, breaks the link condition, or turns a
-//!    surviving triangle by more than 60°;
-//! 3. flip edges when that brings the valences of the four vertices closer to 6 (4 on the
-//!    boundary), in squared deviation;
+//! 2. collapse every edge shorter than 4/5 L (into its midpoint when both ends are free)
+//!    unless that creates an edge longer than 4/3 L, breaks the link condition, turns a
+//!    surviving triangle by more than 60°, or creates an angle below both 20° and the
+//!    smallest angle of the triangles it changes;
+//! 3. flip edges when that brings the valences of the four vertices closer to their targets
+//!    (6 inside, including crease vertices; at corners and on the boundary one triangle per
+//!    60° of each sector between feature edges, 4 on a straight boundary), in squared
+//!    deviation, unless the pair of triangles gets an angle below both 30° and its old
+//!    smallest angle; and flip any edge whose pair has an angle below 30° when that raises
+//!    the pair's smallest angle (no flip can undo another, so the sweep order does not
+//!    matter for termination);
 //! 4. tangential relaxation: every free vertex moves to the area-weighted centroid of its
-//!    incident triangles' centroids, projected onto its tangent plane;
+//!    incident triangles' centroids, projected onto its tangent plane (feature vertices slide
+//!    along their chain, see below);
 //! 5. projection onto the input surface (exact closest point through a [`Bvh`]);
 //!
 //! step 4 repeats `smoothing_steps` times per round, step 5 follows the last of them.
@@ -19,17 +26,21 @@
 //! Feature constraints (thesis §5.1.1, items 1–2): feature edges are never flipped; a feature
 //! vertex is only removed by collapsing along its own chain into a vertex of the same chain or
 //! a corner; corners (see [`crate::features`]) never move and are never removed; other feature
-//! vertices relax towards the midpoint of their two chain neighbours and are projected onto
-//! their chain (the polyline of input feature edges), so they slide along it only. Boundary
-//! edges are features, so boundaries are preserved. How curves become mesh edges is in
+//! vertices slide along their chain (the arc-length parametrised polyline of input feature
+//! edges, [`crate::chain`]) to the middle of their two chain neighbours; split feature edges
+//! get their new vertex at the middle of their stretch of chain. Every output feature edge
+//! stays within `feature_tolerance` · L of the stretch of chain it replaces: a slide or a
+//! collapse that would cut a bend of the chain is not made, so the bends of a feature (and
+//! its input vertices there) are kept exactly while straight stretches are resampled freely.
+//! Boundary edges are features, so boundaries are preserved. How curves become mesh edges is in
 //! [`crate::features`]; sharp-edge chains that end freely at both ends and are shorter than
 //! `min_feature_length` target lengths are dropped (a feature below the scale, thesis §4.3).
 //!
 //! Termination: a fixed number of rounds, at most 64 split and 4 collapse sweeps per round,
 //! and a vertex cap. A target below 1/20 of the input's mean edge length is rejected.
 //! Determinism: every sweep visits edges in slot order; relaxation and projection compute new
-//! positions from old ones (Jacobi) with [`Par::map_collect`], so the output is bit for bit the
-//! same at any thread count.
+//! positions from old ones (Jacobi) with [`Par::map_collect`], chain vertices then slide one
+//! after the other in vertex order, so the output is bit for bit the same at any thread count.
 
 use serde::{Deserialize, Serialize};
 
@@ -41,7 +52,8 @@ use crestflow_geom::halfedge::{self, HalfEdgeError, HalfEdgeMesh, NONE};
 use crestflow_geom::vec3::{self, V3};
 use crestflow_geom::{FeatureCurveNetwork, TriMesh};
 
-use crate::bvh::{closest_on_segment, Bvh};
+use crate::bvh::Bvh;
+use crate::chain::Chain;
 use crate::features::{build_chains, mark_features, prune_short_sharp_chains, FeatureError};
 
 /// Parameters of `remesh.isotropic`.
@@ -73,6 +85,11 @@ pub struct IsotropicParams {
     /// target lengths are not kept (default 1, range [0, 1e6]; 0 keeps all). Boundaries and
     /// curves from `curves` are always kept.
     pub min_feature_length: f64,
+    /// How far (a fraction of the target length) an output feature edge may stray from the
+    /// feature polyline it replaces (default 0.002, range [0, 1]). Feature vertices slide
+    /// along their chain and chain vertices are collapsed only while every input point of the
+    /// chain stays this close to the output edges, so bends of a feature are kept exactly.
+    pub feature_tolerance: f64,
 }
 
 impl Default for IsotropicParams {
@@ -87,6 +104,7 @@ impl Default for IsotropicParams {
             max_vertices: 20_000_000,
             smoothing_steps: 5,
             min_feature_length: 1.0,
+            feature_tolerance: 0.002,
         }
     }
 }
@@ -112,6 +130,13 @@ impl Validate for IsotropicParams {
             self.min_feature_length,
             0.0,
             1e6,
+        );
+        check_range(
+            &mut v,
+            "feature_tolerance",
+            self.feature_tolerance,
+            0.0,
+            1.0,
         );
         v
     }
@@ -181,7 +206,11 @@ struct State<'a> {
     /// Input face each vertex was last projected onto (projection hint).
     hint: Vec<u32>,
     bvh: &'a Bvh,
-    chains: &'a [Vec<V3>],
+    chains: Vec<Chain>,
+    /// Arc-length parameter of each chain vertex on its chain (unused for other vertices).
+    param: Vec<f64>,
+    /// Largest distance of a chain point from the output edge that replaces it.
+    tol: f64,
     l: f64,
     max_turn: f64,
     splits: usize,
@@ -269,7 +298,14 @@ fn isotropic_with(
             .collect(),
         hint: vec![u32::MAX; mesh.n_vertices()],
         bvh: &bvh,
-        chains: &chains.points,
+        chains: chains
+            .points
+            .iter()
+            .zip(&chains.closed)
+            .map(|(p, &c)| Chain::new(p.clone(), c))
+            .collect(),
+        param: chains.vertex_param.clone(),
+        tol: params.feature_tolerance * l,
         l,
         max_turn: 60f64.to_radians(),
         splits: 0,
@@ -298,7 +334,7 @@ fn isotropic_with(
         st.split_long(params.max_vertices)?;
         check()?;
         st.collapse_short();
-        st.equalize_valences();
+        st.equalize_valences(par);
         check()?;
         st.compact();
         for step in 0..params.smoothing_steps {
@@ -346,14 +382,17 @@ impl State<'_> {
         let n = self.he.n_vertex_slots();
         let mut role = vec![Role::Free; n];
         let mut hint = vec![u32::MAX; n];
+        let mut param = vec![0.0; n];
         for (old, &m) in map.iter().enumerate() {
             if m != NONE {
                 role[m as usize] = self.role[old];
                 hint[m as usize] = self.hint[old];
+                param[m as usize] = self.param[old];
             }
         }
         self.role = role;
         self.hint = hint;
+        self.param = param;
     }
 
     fn len2(&self, a: u32, b: u32) -> f64 {
@@ -361,12 +400,28 @@ impl State<'_> {
         vec3::dot(d, d)
     }
 
+    /// Squared length above which an edge is split: (4/3 L)².
+    fn split_len2(&self) -> f64 {
+        (4.0 / 3.0 * self.l).powi(2)
+    }
+
     fn split_long(&mut self, max_vertices: usize) -> Result<(), RemeshError> {
-        let hi2 = (4.0 / 3.0 * self.l).powi(2);
+        let hi2 = self.split_len2();
         for _ in 0..64 {
             let mut any = false;
-            let n = self.he.n_halfedge_slots() as u32;
-            for h in 0..n {
+            // Longest edges first (ties by slot): longest-edge bisection never makes a
+            // triangle thinner than half its smallest angle, while splitting in slot order
+            // can bisect the short sides of a triangle again and again, making needles whose
+            // long sides never get shorter (the sweep then only stops at the vertex cap).
+            let mut long: Vec<(f64, u32)> = (0..self.he.n_halfedge_slots() as u32)
+                .filter(|&h| self.he.is_halfedge_alive(h) && self.he.is_canonical(h))
+                .filter_map(|h| {
+                    let l2 = self.len2(self.he.from(h), self.he.to(h));
+                    (l2 > hi2).then_some((l2, h))
+                })
+                .collect();
+            long.sort_by(|x, y| y.0.total_cmp(&x.0).then(x.1.cmp(&y.1)));
+            for (_, h) in long {
                 if !self.he.is_halfedge_alive(h) || !self.he.is_canonical(h) {
                     continue;
                 }
@@ -381,14 +436,28 @@ impl State<'_> {
                         max: max_vertices,
                     });
                 }
-                let mid = vec3::lerp(self.he.position(a), self.he.position(b), 0.5);
                 let t = self.he.tag(h);
+                // A feature edge is split at the middle of its stretch of chain.
+                let (mid, s) = if t != NONE {
+                    let c = &self.chains[t as usize];
+                    let sa = self.param_on(a, t, f64::NAN);
+                    let sb = self.param_on(b, t, sa);
+                    let sa = self.param_on(a, t, sb);
+                    let s = c.middle(sa, sb);
+                    (c.point_at(s), s)
+                } else {
+                    (
+                        vec3::lerp(self.he.position(a), self.he.position(b), 0.5),
+                        0.0,
+                    )
+                };
                 let m = self.he.split_edge(h, mid);
                 self.role.push(if t != NONE {
                     Role::Chain(t)
                 } else {
                     Role::Free
                 });
+                self.param.push(s);
                 self.hint.push(self.hint[a as usize]);
                 self.splits += 1;
                 any = true;
@@ -401,24 +470,80 @@ impl State<'_> {
         Ok(())
     }
 
-    /// Whether vertex `a` may disappear into `b` along the edge of `h` (feature rules only).
+    /// Arc-length parameter of vertex `u` on chain `c` (an edge of `u` is tagged `c`): its own
+    /// for a vertex inside the chain; for a corner, the end of the chain it sits at (on a
+    /// chain from a corner back to itself, the end nearer to `near`).
+    fn param_on(&self, u: u32, c: u32, near: f64) -> f64 {
+        if self.role[u as usize] == Role::Chain(c) {
+            return self.param[u as usize];
+        }
+        let ch = &self.chains[c as usize];
+        let (first, last) = ch.ends();
+        let p = self.he.position(u);
+        let (d0, d1) = (vec3::dist(p, first), vec3::dist(p, last));
+        if d0 < d1 || (d0 == d1 && !(near > 0.5 * ch.total())) {
+            0.0
+        } else {
+            ch.total()
+        }
+    }
+
+    /// The neighbour of chain vertex `v` across its chain-`c` edge other than to `not`.
+    fn chain_neighbor(&self, v: u32, c: u32, not: u32) -> u32 {
+        for k in self.he.outgoing(v) {
+            let x = self.he.to(k);
+            if x != not && self.he.tag(k) == c {
+                return x;
+            }
+        }
+        // The boundary edge ending at `v` (not in the outgoing sweep).
+        let last = self.he.outgoing(v).last().unwrap_or(NONE);
+        if last != NONE {
+            let p = halfedge::prev(last);
+            if self.he.opp(p) == NONE && self.he.tag(p) == c && self.he.from(p) != not {
+                return self.he.from(p);
+            }
+        }
+        NONE
+    }
+
+    /// Whether the chain between `x` and `y` (both on chain `c`, `near` a parameter between
+    /// them) stays within the tolerance of the segment from `px` to `py`.
+    fn chain_straight(&self, c: u32, x: u32, y: u32, near: f64, px: V3, py: V3) -> bool {
+        let sx = self.param_on(x, c, near);
+        let sy = self.param_on(y, c, near);
+        self.chains[c as usize].deviation(sx, sy, px, py) <= self.tol
+    }
+
+    /// Whether vertex `a` may disappear into `b` along the edge of `h` (feature rules only):
+    /// a chain vertex only along its chain, into the next vertex of the chain, and only where
+    /// the chain is straight between its other neighbour and `b`.
     fn removable_into(&self, h: u32, a: u32, b: u32) -> bool {
         match self.role[a as usize] {
             Role::Corner => false,
             Role::Free => true,
             Role::Chain(c) => {
-                self.he.tag(h) == c && matches!(self.role[b as usize], Role::Corner)
-                    || self.role[b as usize] == Role::Chain(c) && self.he.tag(h) == c
+                if self.he.tag(h) != c
+                    || !(matches!(self.role[b as usize], Role::Corner)
+                        || self.role[b as usize] == Role::Chain(c))
+                {
+                    return false;
+                }
+                let x = self.chain_neighbor(a, c, b);
+                if x == NONE || x == b {
+                    return false;
+                }
+                let s = self.param[a as usize];
+                self.chain_straight(c, x, b, s, self.he.position(x), self.he.position(b))
             }
         }
     }
 
-    /// Where the merged vertex of collapsing `h` goes: the midpoint when both ends have the
-    /// same role (two free vertices, or two vertices inside the same chain), else the
-    /// target, which is the more constrained one.
+    /// Where the merged vertex of collapsing `h` goes: the midpoint of two free vertices,
+    /// else the target, which is at least as constrained as the origin.
     fn merged_position(&self, h: u32) -> V3 {
         let (a, b) = (self.he.from(h), self.he.to(h));
-        if self.role[a as usize] == self.role[b as usize] {
+        if self.role[a as usize] == Role::Free && self.role[b as usize] == Role::Free {
             vec3::lerp(self.he.position(a), self.he.position(b), 0.5)
         } else {
             self.he.position(b)
@@ -427,7 +552,7 @@ impl State<'_> {
 
     /// Whether the triangles around `v` that do not contain `other` keep their orientation
     /// (normal turn at most `max_turn`) and some area when `v` moves to `p`.
-    fn fan_ok(&self, v: u32, other: u32, p: V3) -> bool {
+    fn fan_ok(&self, v: u32, other: u32, p: V3, angles: &mut (f64, f64)) -> bool {
         let cos_max = self.max_turn.cos();
         for k in self.he.outgoing(v) {
             let f = halfedge::face_of(k);
@@ -442,6 +567,9 @@ impl State<'_> {
             if !(ln > 1e-12 * lo) || vec3::dot(n_old, n_new) < cos_max * lo * ln {
                 return false;
             }
+            let old = t.map(|u| self.he.position(u));
+            angles.0 = angles.0.max(min_angle_cos(old[0], old[1], old[2]));
+            angles.1 = angles.1.max(min_angle_cos(q(t[0]), q(t[1]), q(t[2])));
         }
         true
     }
@@ -450,7 +578,7 @@ impl State<'_> {
     /// the chain's own edges count: off-chain edges that grow are split again, while a chain
     /// that keeps short edges would pin thin triangles along the feature.
     fn lengths_ok(&self, v: u32, p: V3, chain_only: bool) -> bool {
-        let hi2 = (4.0 / 3.0 * self.l).powi(2);
+        let hi2 = self.split_len2();
         for x in self.he.neighbors(v) {
             if chain_only {
                 let e = self.he.find_edge(v, x);
@@ -488,8 +616,15 @@ impl State<'_> {
         self.lengths_ok(a, p, chain)
             && self.lengths_ok(b, p, chain)
             && self.he.collapse_topology_ok(h).is_ok()
-            && self.fan_ok(a, b, p)
-            && self.fan_ok(b, a, p)
+            && {
+                // Smallest angle of the surviving triangles around a and b, before and after
+                // (as cosines): a collapse may not create an angle below both the old one
+                // and 20°.
+                let mut angles = (-1.0, -1.0);
+                self.fan_ok(a, b, p, &mut angles)
+                    && self.fan_ok(b, a, p, &mut angles)
+                    && angles.1 <= angles.0.max(COS_COLLAPSE_MIN_ANGLE)
+            }
     }
 
     fn collapse_short(&mut self) {
@@ -536,9 +671,66 @@ impl State<'_> {
         }
     }
 
-    fn equalize_valences(&mut self) {
+    /// The valence that gives vertex `v` angles closest to 60°: 6 inside a smooth region and
+    /// inside a feature chain away from the boundary (three triangles on each side of a
+    /// crease); at a corner or on the boundary, each sector between two feature edges of angle
+    /// θ wants max(1, round(θ / 60°)) triangles, plus one edge on the boundary (4 on a
+    /// straight boundary, 3 at a square corner of a boundary, 6 at a cube corner).
+    fn target_valence(&self, v: u32) -> i64 {
+        let boundary = self.he.is_boundary_vertex(v);
+        if !boundary && matches!(self.role[v as usize], Role::Free | Role::Chain(_)) {
+            return 6;
+        }
+        let hs: Vec<u32> = self.he.outgoing(v).collect();
+        let n = hs.len();
+        if n == 0 {
+            return 6;
+        }
+        let tagged = |i: usize| self.he.tag(hs[i % n]) != NONE;
+        let start = if boundary {
+            0
+        } else {
+            match (0..n).find(|&i| tagged(i)) {
+                Some(i) => i,
+                None => return 6,
+            }
+        };
+        let p = self.he.position(v);
+        let sixty = std::f64::consts::PI / 3.0;
+        let (mut tris, mut acc) = (0i64, 0.0);
+        for i in start..start + n {
+            let h = hs[i % n];
+            let u = vec3::sub(self.he.position(self.he.to(h)), p);
+            let w = vec3::sub(self.he.position(self.he.from(halfedge::prev(h))), p);
+            acc += crestflow_geom::mesh::corner_angle(u, w);
+            let closes = if boundary {
+                i + 1 == n || tagged(i + 1)
+            } else {
+                tagged(i + 1)
+            };
+            if closes {
+                tris += ((acc / sixty).round() as i64).max(1);
+                acc = 0.0;
+            }
+        }
+        tris + boundary as i64
+    }
+
+    fn equalize_valences(&mut self, par: Par) {
         let n = self.he.n_halfedge_slots() as u32;
         let cos_turn = self.max_turn.cos();
+        let (target, mut valence): (Vec<i64>, Vec<i64>) = {
+            let st = &*self;
+            par.map_collect(st.he.n_vertex_slots(), |v| {
+                if st.he.is_vertex_alive(v as u32) {
+                    (st.target_valence(v as u32), st.he.valence(v as u32) as i64)
+                } else {
+                    (6, 0)
+                }
+            })
+            .into_iter()
+            .unzip()
+        };
         for h in 0..n {
             if !self.he.is_halfedge_alive(h)
                 || !self.he.is_canonical(h)
@@ -551,14 +743,28 @@ impl State<'_> {
             let (a, b) = (self.he.from(h), self.he.to(h));
             let c = self.he.from(halfedge::prev(h));
             let d = self.he.from(halfedge::prev(g));
-            let target = |v: u32| if self.he.is_boundary_vertex(v) { 4 } else { 6 };
             let dev = |v: u32, delta: i64| {
-                let x = self.he.valence(v) as i64 + delta - target(v);
+                let x = valence[v as usize] + delta - target[v as usize];
                 x * x
             };
             let before = dev(a, 0) + dev(b, 0) + dev(c, 0) + dev(d, 0);
             let after = dev(a, -1) + dev(b, -1) + dev(c, 1) + dev(d, 1);
-            if after >= before {
+            let p = |v: u32| self.he.position(v);
+            let old = min_angle_cos(p(a), p(b), p(c)).max(min_angle_cos(p(b), p(a), p(d)));
+            let valence_better = after < before;
+            if !valence_better && !(old > COS_FLIP_MIN_ANGLE) {
+                continue;
+            }
+            let new = min_angle_cos(p(d), p(b), p(c)).max(min_angle_cos(p(c), p(a), p(d)));
+            // Valence flips keep the smallest angle of the pair above 30° (or do not lower
+            // it); a pair with a smaller angle is flipped whenever that raises it (then no
+            // flip can undo another, so the sweeps terminate). Angles as cosines.
+            let ok = if valence_better {
+                new <= old.max(COS_FLIP_MIN_ANGLE)
+            } else {
+                new < old - 1e-6
+            };
+            if !ok {
                 continue;
             }
             // Keep the surface: no flip across a fold steeper than the collapse limit.
@@ -569,6 +775,10 @@ impl State<'_> {
             }
             if self.he.flip_ok(h) {
                 self.he.flip(h);
+                valence[a as usize] -= 1;
+                valence[b as usize] -= 1;
+                valence[c as usize] += 1;
+                valence[d as usize] += 1;
                 self.flips += 1;
             }
         }
@@ -577,21 +787,8 @@ impl State<'_> {
     fn relax_and_project(&mut self, par: Par, project: bool) {
         let nv = self.he.n_vertex_slots();
         let he = &self.he;
-        // Area-weighted vertex normals.
-        let normal: Vec<V3> = par.map_collect(nv, |v| {
-            let v = v as u32;
-            if !he.is_vertex_alive(v) {
-                return [0.0; 3];
-            }
-            let mut n = [0.0; 3];
-            for k in he.outgoing(v) {
-                n = vec3::add(n, he.face_normal_raw(halfedge::face_of(k)));
-            }
-            vec3::normalize(n)
-        });
         let role = &self.role;
         let bvh = self.bvh;
-        let chains = self.chains;
         let hint = &self.hint;
         let moved: Vec<(V3, u32)> = par.map_collect(nv, |v| {
             let v = v as u32;
@@ -601,37 +798,26 @@ impl State<'_> {
             }
             match role[v as usize] {
                 Role::Corner => (p, hint[v as usize]),
-                Role::Chain(c) => {
-                    // Midpoint of the two chain neighbours, then back onto the chain.
-                    let mut s = [0.0; 3];
-                    let mut k = 0;
-                    for x in he.neighbors(v) {
-                        let e = he.find_edge(v, x);
-                        if e != NONE && he.tag(e) == c {
-                            s = vec3::add(s, he.position(x));
-                            k += 1;
-                        }
-                    }
-                    let q = if k == 2 { vec3::scale(s, 0.5) } else { p };
-                    (
-                        project_on_polyline(&chains[c as usize], q),
-                        hint[v as usize],
-                    )
-                }
+                // Moved below, one after the other.
+                Role::Chain(_) => (p, NONE),
                 Role::Free => {
-                    // Centroid of the incident triangles' centroids weighted by their areas.
+                    // Centroid of the incident triangles' centroids weighted by their areas,
+                    // moved within the tangent plane of the area-weighted vertex normal.
                     let mut s = [0.0; 3];
+                    let mut nsum = [0.0; 3];
                     let mut w = 0.0;
                     for k in he.outgoing(v) {
                         let f = halfedge::face_of(k);
-                        let a = vec3::norm(he.face_normal_raw(f));
                         let [x, y, z] = he.face_vertices(f).map(|u| he.position(u));
+                        let nf = vec3::cross(vec3::sub(y, x), vec3::sub(z, x));
+                        let a = vec3::norm(nf);
+                        nsum = vec3::add(nsum, nf);
                         s = vec3::add(s, vec3::scale(vec3::add(vec3::add(x, y), z), a / 3.0));
                         w += a;
                     }
                     let q = if w > 0.0 {
                         let u = vec3::sub(vec3::scale(s, 1.0 / w), p);
-                        let n = normal[v as usize];
+                        let n = vec3::normalize(nsum);
                         vec3::add(p, vec3::sub(u, vec3::scale(n, vec3::dot(n, u))))
                     } else {
                         p
@@ -651,21 +837,74 @@ impl State<'_> {
                 self.hint[v] = f;
             }
         }
+        self.slide_chain_vertices();
+    }
+
+    /// Every vertex inside a chain moves to the middle (in arc length) of its two chain
+    /// neighbours, on the chain, unless that would make one of its two feature edges stray
+    /// from the chain by more than the tolerance (so bends stay in place). Gauss–Seidel in
+    /// vertex order: few vertices, and each move is checked against its neighbours' current
+    /// positions.
+    fn slide_chain_vertices(&mut self) {
+        for v in 0..self.he.n_vertex_slots() as u32 {
+            let Role::Chain(c) = self.role[v as usize] else {
+                continue;
+            };
+            if !self.he.is_vertex_alive(v) {
+                continue;
+            }
+            let x = self.chain_neighbor(v, c, NONE);
+            let y = if x == NONE {
+                NONE
+            } else {
+                self.chain_neighbor(v, c, x)
+            };
+            if y == NONE {
+                continue;
+            }
+            let s = self.param[v as usize];
+            let sx = self.param_on(x, c, s);
+            let sy = self.param_on(y, c, s);
+            let ch = &self.chains[c as usize];
+            let t = ch.middle(sx, sy);
+            let p = ch.point_at(t);
+            let (px, py) = (self.he.position(x), self.he.position(y));
+            if ch.deviation(sx, t, px, p) <= self.tol && ch.deviation(t, sy, p, py) <= self.tol {
+                self.he.set_position(v, p);
+                self.param[v as usize] = t;
+            }
+        }
     }
 }
 
-/// Closest point of a polyline to `p` (first segment wins ties).
-fn project_on_polyline(pts: &[V3], p: V3) -> V3 {
-    let mut best = (f64::INFINITY, p);
-    for w in pts.windows(2) {
-        let (q, _) = closest_on_segment(p, w[0], w[1]);
-        let d = vec3::sub(p, q);
-        let d2 = vec3::dot(d, d);
-        if d2 < best.0 {
-            best = (d2, q);
-        }
+/// Valence-improving flips may not create an angle below both the old smallest angle of the
+/// pair and 30° (its cosine).
+const COS_FLIP_MIN_ANGLE: f64 = 0.866_025_403_784_438_6;
+/// Collapses may not create an angle below both the old smallest angle around them and 20°
+/// (its cosine).
+const COS_COLLAPSE_MIN_ANGLE: f64 = 0.939_692_620_785_908_4;
+
+/// Cosine of the smallest interior angle of triangle (a, b, c) (1 when degenerate): the angle
+/// opposite the shortest side, by the law of cosines.
+fn min_angle_cos(a: V3, b: V3, c: V3) -> f64 {
+    let d2 = |x: V3, y: V3| {
+        let d = vec3::sub(x, y);
+        vec3::dot(d, d)
+    };
+    let (ab, bc, ca) = (d2(a, b), d2(b, c), d2(c, a));
+    // The shortest side s and the two others u, w.
+    let (s, u, w) = if ab <= bc && ab <= ca {
+        (ab, bc, ca)
+    } else if bc <= ca {
+        (bc, ab, ca)
+    } else {
+        (ca, ab, bc)
+    };
+    let uw = (u * w).sqrt();
+    if !(uw > 0.0) {
+        return 1.0;
     }
-    best.1
+    ((u + w - s) / (2.0 * uw)).min(1.0)
 }
 
 /// The `remesh.isotropic` node.
@@ -674,7 +913,7 @@ pub struct IsotropicNode;
 impl NodeKind for IsotropicNode {
     type Params = IsotropicParams;
     const KIND: &'static str = "remesh.isotropic";
-    const VERSION: u32 = 1;
+    const VERSION: u32 = 2;
     const DOC: &'static str = "Isotropic remeshing at a target edge length (Botsch & Kobbelt \
         2004, thesis §5.1.1): splits > 4/3 L, collapses < 4/5 L, valence-improving flips, \
         tangential relaxation and projection onto the input surface, for `iterations` rounds. \
@@ -682,7 +921,9 @@ impl NodeKind for IsotropicNode {
         sharp edges (dihedral > sharp_angle_deg; free-ended sharp chains shorter than \
         min_feature_length targets are dropped) and boundaries; corners stay fixed, other \
         feature vertices slide along their feature polyline, feature edges are never flipped \
-        and collapse only along themselves. `target` is a fraction of the bbox diagonal \
+        and collapse only along themselves, and no output feature edge strays more than \
+        feature_tolerance · L from the polyline it replaces (bends are kept). Flips and \
+        collapses do not create angles below 30° / 20° unless the old ones were smaller. `target` is a fraction of the bbox diagonal \
         (relative: true) or absolute. Outputs the mesh and a Report (vertices_out, \
         feature_edges_in/out, splits, collapses, flips, target_abs).";
 

@@ -5,7 +5,8 @@
 //! - `remesh.isotropic` ([`isotropic`]): splits, collapses, valence-improving flips and
 //!   tangential relaxation with projection onto the input surface, keeping feature edges
 //!   (from a [`FeatureCurveNetwork`](crestflow_geom::FeatureCurveNetwork), sharp dihedral
-//!   angles and boundaries) in the output.
+//!   angles and boundaries) in the output; feature vertices slide along their chain
+//!   ([`chain`]: arc-length parametrised feature polylines) without cutting its bends.
 
 // Comparisons are written `!(x > y)` where NaN must take the rejecting branch.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
@@ -13,6 +14,7 @@
 use crestflow_flow::Registry;
 
 pub mod bvh;
+pub mod chain;
 pub mod features;
 pub mod isotropic;
 

@@ -393,6 +393,16 @@ fn bad_input_gives_clear_errors() {
     );
 
     let bad = IsotropicParams {
+        feature_tolerance: -0.1,
+        ..abs(0.2)
+    };
+    let e = isotropic(&sphere, None, &bad, Par::Seq).unwrap_err();
+    assert!(
+        matches!(&e, RemeshError::Params(m) if m.contains("feature_tolerance")),
+        "{e}"
+    );
+
+    let bad = IsotropicParams {
         iterations: 5000,
         ..abs(0.2)
     };
@@ -436,4 +446,122 @@ fn fandisk_keeps_its_sharp_edges() {
     assert!(kept > 0.0);
     let amin = min_angle_deg(&out.mesh);
     assert!(amin > 10.0, "min angle {amin}");
+}
+
+/// Distance from `p` to the closed polygon `poly`.
+fn dist_to_polygon(p: V3, poly: &[V3]) -> f64 {
+    (0..poly.len())
+        .map(|i| {
+            let (a, b) = (poly[i], poly[(i + 1) % poly.len()]);
+            let (q, _) = crestflow_nodes_remesh::bvh::closest_on_segment(p, a, b);
+            vec3::dist(p, q)
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
+#[test]
+fn cylinder_rims_keep_their_bends_exactly() {
+    // An open cylinder: its rims are boundary loops, 24-gons that turn by 15° at every input
+    // vertex (below the 60° corner angle, so they are chains, not corners). Sliding a rim
+    // vertex off a bend, or collapsing one, would cut the polygon: every input rim vertex must
+    // stay, and every output boundary edge must lie on the input rim polygon.
+    // A tolerance of 1e-9 L: the rims are kept to rounding.
+    let n = 24;
+    let input = shapes::cylinder(1.0, 2.0, n, 8, 0.0, 1).unwrap();
+    let l = 0.1;
+    let params = IsotropicParams {
+        feature_tolerance: 1e-9,
+        ..abs(l)
+    };
+    let out = isotropic(&input, None, &params, Par::Rayon).unwrap();
+    let m = &out.mesh;
+    assert_manifold(m);
+    let rims: Vec<Vec<V3>> = [0, 8]
+        .iter()
+        .map(|&j| input.positions[j * n..(j + 1) * n].to_vec())
+        .collect();
+    for rim in &rims {
+        for p in rim {
+            let d = m
+                .positions
+                .iter()
+                .map(|q| vec3::dist(*p, *q))
+                .fold(f64::INFINITY, f64::min);
+            assert!(
+                d < 1e-9,
+                "rim vertex {p:?} lost ({d} from the nearest output vertex)"
+            );
+        }
+    }
+    let topo = m.topology();
+    let mut boundary_len = 0.0;
+    for (e, f) in topo.edge_faces.iter().enumerate() {
+        if f[1] == crestflow_geom::mesh::NO_FACE {
+            let [a, b] = topo.edges[e];
+            let (pa, pb) = (m.positions[a as usize], m.positions[b as usize]);
+            let rim = if pa[2] < 0.0 { &rims[0] } else { &rims[1] };
+            for q in [pa, pb, vec3::lerp(pa, pb, 0.5)] {
+                let d = dist_to_polygon(q, rim);
+                assert!(d < 1e-12, "boundary point {q:?} is {d} off its rim");
+            }
+            boundary_len += vec3::dist(pa, pb);
+        }
+    }
+    // Both 24-gons, whole: perimeter 2 · 24 · 2 sin(π/24).
+    let perimeter = 2.0 * n as f64 * 2.0 * (std::f64::consts::PI / n as f64).sin();
+    assert!(
+        (boundary_len - perimeter).abs() < 1e-9,
+        "{boundary_len} vs {perimeter}"
+    );
+    let amin = min_angle_deg(m);
+    eprintln!("cylinder: min angle {amin}");
+    assert!(amin >= 30.0, "min angle {amin}");
+}
+
+#[test]
+fn cube_angles_stay_large() {
+    // Creases and corners are kept (see above); with slides along straight creases, flips that
+    // raise small angles and collapses that do not create them, the smallest angle stays
+    // near the 30° of a regular crease fan.
+    for (n, l) in [(6, 0.12), (5, 0.1), (7, 0.2), (4, 0.07)] {
+        let out = isotropic(&cube(n), None, &abs(l), Par::Rayon).unwrap();
+        assert_manifold(&out.mesh);
+        let amin = min_angle_deg(&out.mesh);
+        eprintln!("cube({n}), L = {l}: min angle {amin}");
+        assert!(amin >= 25.0, "cube({n}), L = {l}: min angle {amin}");
+    }
+}
+
+#[test]
+fn degenerate_input_terminates_with_a_valid_mesh() {
+    // A flat 10 × 10 grid whose row 5 is moved onto row 4: a band of zero-area triangles
+    // (three collinear corners) and vertices at the same place. Remeshing must terminate and
+    // give a manifold mesh of the same square.
+    let n = 10;
+    let mut pos = Vec::new();
+    for j in 0..=n {
+        for i in 0..=n {
+            let y = if j == 5 { 4.0 } else { j as f64 } / n as f64;
+            pos.push([i as f64 / n as f64, y, 0.0]);
+        }
+    }
+    let id = |i: usize, j: usize| (j * (n + 1) + i) as u32;
+    let mut tri = Vec::new();
+    for j in 0..n {
+        for i in 0..n {
+            tri.push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
+            tri.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
+        }
+    }
+    let input = TriMesh::new(pos, tri);
+    let t = std::time::Instant::now();
+    let out = isotropic(&input, None, &abs(0.15), Par::Rayon).unwrap();
+    assert!(t.elapsed().as_secs_f64() < 20.0);
+    assert_manifold(&out.mesh);
+    for p in &out.mesh.positions {
+        assert!(p.iter().all(|c| c.is_finite()));
+        assert!(p[2].abs() < 1e-12 && (-1e-12..=1.0 + 1e-12).contains(&p[0]));
+    }
+    let area = out.mesh.total_area();
+    assert!((area - 1.0).abs() < 1e-9, "area {area}");
 }

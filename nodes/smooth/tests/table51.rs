@@ -19,14 +19,38 @@ use crestflow_nodes_eval::mesh_distance::{mesh_distance, MeshDistanceParams};
 use crestflow_nodes_ridges::{trace, TraceParams};
 use crestflow_nodes_smooth::{laplacian_smooth, LaplacianParams, Step, Weights};
 
-/// (a) of Table 5.1: the network after co-completion (thesis §4.2.3, `selection.complete`).
-/// That node does not exist yet; when it does, return its completed network for `traced`
-/// here and the table gains its column.
+/// (a) of Table 5.1: the network after co-completion (thesis §4.2.3): the traced curves →
+/// symmetry.{blast, cluster, orbits} → selection.model → selection.complete, all with their
+/// default parameters.
 fn co_completed_curves(
-    _mesh: &TriMesh,
-    _traced: &FeatureCurveNetwork,
+    mesh: &TriMesh,
+    traced: &FeatureCurveNetwork,
 ) -> Option<FeatureCurveNetwork> {
-    None
+    use crestflow_nodes_selection::{complete, select_model, CompleteParams, ModelParams};
+    use crestflow_nodes_symmetry::{
+        blast, cluster, orbits, BlastParams, ClusterParams, OrbitParams,
+    };
+    let m = blast(traced, mesh, &BlastParams::default(), Par::Rayon).expect("blast");
+    let c = cluster(&m, &ClusterParams::default(), Par::Rayon).expect("cluster");
+    let o = orbits(&c, &OrbitParams::default(), Par::Rayon).expect("orbits");
+    let model = select_model(traced, &c, Some(&o), &ModelParams::default(), Par::Rayon)
+        .expect("model selection");
+    let done =
+        complete(traced, &model, &CompleteParams::default(), Par::Rayon).expect("co-completion");
+    println!(
+        "(a) co-completion: {} orbits, {} kept, {} of {} curves reoccur, {} templates, {} strong \
+         kept, {} noise removed -> {} curves, {:.3} diag long",
+        o.orbits.len(),
+        model.kept.len(),
+        done.component_of.iter().filter(|c| c.is_some()).count(),
+        traced.curves.len(),
+        done.per_template.len(),
+        done.strong_curves_kept,
+        done.noise_curves_removed,
+        done.network.curves.len(),
+        done.network.total_length() / mesh.bbox_diagonal()
+    );
+    Some(done.network)
 }
 
 fn distance(clean: &TriMesh, m: &TriMesh) -> (f64, f64) {

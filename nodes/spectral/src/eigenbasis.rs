@@ -30,8 +30,9 @@
 //!
 //! Determinism: the start block comes from a seeded SplitMix64 stream; dense block products
 //! are split in fixed row chunks whose partial sums are added in chunk order; sparse solves
-//! split columns in fixed groups. `Par::Seq` and `Par::Rayon` give the same bits. Each
-//! eigenvector's sign is fixed: its entry of largest magnitude is positive.
+//! give each column the same bits however columns are grouped. `Par::Seq` and `Par::Rayon`
+//! give the same bits. Each eigenvector's sign is fixed: its entry of largest magnitude is
+//! positive.
 
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::matmul::matmul;
@@ -246,40 +247,66 @@ fn at_d_b(
 
 /// `A X` for column-major `A` (n × p) and `X` (p × q); returns n × q column-major.
 fn a_x(a: &[f64], p: usize, x: &[f64], q: usize, n: usize, par: Par) -> Vec<f64> {
+    let mut y = vec![0.0; n * q];
+    a_x_into(&mut y, 0.0, a, p, x, q, n, par);
+    y
+}
+
+/// `Y = beta · Y + s · A X` with `s = 1` when `beta == 0` (Y overwritten) and `s = −1`
+/// otherwise, written straight into `Y` (n × q column-major) over fixed row chunks, with no
+/// temporaries. Each output row depends only on its own chunk: the bits do not depend on
+/// the thread count.
+#[allow(clippy::too_many_arguments)]
+fn a_x_into(
+    y: &mut [f64],
+    beta: f64,
+    a: &[f64],
+    p: usize,
+    x: &[f64],
+    q: usize,
+    n: usize,
+    par: Par,
+) {
     let chunks = n.div_ceil(ROW_CHUNK);
-    let parts = par.map_collect(chunks, |c| {
+    let yp = SendPtr(y.as_mut_ptr());
+    let body = |c: usize| {
         let r0 = c * ROW_CHUNK;
         let len = ROW_CHUNK.min(n - r0);
         let am = mref(a, n, p).subrows(r0, len);
-        let mut out = Mat::<f64>::zeros(len, q);
-        matmul(
-            out.as_mut(),
-            Accum::Replace,
-            am,
-            mref(x, p, q),
-            1.0,
-            faer::Par::Seq,
-        );
-        out
-    });
-    let mut y = vec![0.0; n * q];
-    for (c, part) in parts.into_iter().enumerate() {
-        let r0 = c * ROW_CHUNK;
-        for j in 0..q {
-            for i in 0..part.nrows() {
-                y[j * n + r0 + i] = part[(i, j)];
-            }
+        // SAFETY: chunks are disjoint row ranges of the n × q column-major `y`, which
+        // outlives this call; each task writes only its own rows.
+        let ym =
+            unsafe { faer::MatMut::from_raw_parts_mut(yp.get().add(r0), len, q, 1, n as isize) };
+        let (accum, alpha) = if beta == 0.0 {
+            (Accum::Replace, 1.0)
+        } else {
+            (Accum::Add, -1.0)
+        };
+        matmul(ym, accum, am, mref(x, p, q), alpha, faer::Par::Seq);
+    };
+    match par {
+        Par::Seq => (0..chunks).for_each(body),
+        Par::Rayon => {
+            use rayon::prelude::*;
+            (0..chunks).into_par_iter().for_each(body)
         }
     }
-    y
+}
+
+/// A raw pointer that may cross threads (disjoint writes only, see [`a_x_into`]).
+#[derive(Clone, Copy)]
+struct SendPtr(*mut f64);
+unsafe impl Send for SendPtr {}
+unsafe impl Sync for SendPtr {}
+impl SendPtr {
+    fn get(self) -> *mut f64 {
+        self.0
+    }
 }
 
 /// `W −= V C` in place (V: n × p, C: p × q, W: n × q).
 fn sub_a_x(w: &mut [f64], v: &[f64], p: usize, c: &[f64], q: usize, n: usize, par: Par) {
-    let vc = a_x(v, p, c, q, n, par);
-    for (wi, x) in w.iter_mut().zip(vc) {
-        *wi -= x;
-    }
+    a_x_into(w, 1.0, v, p, c, q, n, par);
 }
 
 /// Symmetric eigen-decomposition of a small dense matrix (column-major, symmetrised), with

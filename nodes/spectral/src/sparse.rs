@@ -22,17 +22,19 @@
 //! about 1e-8 rad) contributes nothing to `L` (dropping it keeps `L` positive semi-definite,
 //! clamping single cotangents would not): no NaN or infinity reaches the matrix.
 //!
-//! Determinism: assembly sums contributions in face order; products and solves split work in
-//! fixed-size pieces that do not depend on the thread count, so `Par::Seq` and `Par::Rayon`
-//! give the same bits.
+//! Determinism: assembly sums contributions in face order; the triangular solves give each
+//! right-hand side the same operations whatever columns it is solved with; products split
+//! work in fixed-size pieces that do not depend on the thread count, so `Par::Seq` and
+//! `Par::Rayon` give the same bits.
 
 use std::sync::Arc;
 
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::sparse::linalg::cholesky::{
     factorize_symbolic_cholesky, CholeskySymbolicParams, LltRef, SymbolicCholesky,
-    SymmetricOrdering,
+    SymbolicCholeskyRaw, SymmetricOrdering,
 };
+use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, MatMut, Side};
 use rayon::prelude::*;
@@ -45,8 +47,8 @@ use crestflow_geom::{MeshDefect, TriMesh};
 /// 1e-8 rad); beyond it the triangle is left out of `L` (module docs).
 pub const COT_CLAMP: f64 = 1e8;
 
-/// Columns solved together by one thread in [`SpdSolver::solve_many`]; fixed so that the
-/// result does not depend on the number of threads.
+/// Columns solved together by one task in [`SpdSolver::solve_many`] (the width of the
+/// interleaved right-hand-side block of the triangular solves).
 const SOLVE_CHUNK: usize = 8;
 
 /// Errors of sparse matrix construction, products and factorisation.
@@ -112,12 +114,35 @@ impl CsrMatrix {
                 return Err(SparseError::NonFinite { row, col, value });
             }
         }
-        // Stable sort keeps the given order among duplicates: the sums are reproducible.
-        let mut order: Vec<u32> = (0..triplets.len() as u32).collect();
-        order.sort_by_key(|&t| {
-            let (r, c, _) = triplets[t as usize];
-            (r, c)
-        });
+        // Order by (row, column), keeping the given order among duplicates (the sums are
+        // reproducible): a counting sort by row, then a stable insertion sort of each
+        // (short) row by column.
+        let mut start = vec![0usize; nrows + 1];
+        for &(r, _, _) in triplets {
+            start[r + 1] += 1;
+        }
+        for i in 0..nrows {
+            start[i + 1] += start[i];
+        }
+        let mut fill = start.clone();
+        let mut order: Vec<u32> = vec![0; triplets.len()];
+        for (t, &(r, _, _)) in triplets.iter().enumerate() {
+            order[fill[r]] = t as u32;
+            fill[r] += 1;
+        }
+        for i in 0..nrows {
+            let row = &mut order[start[i]..start[i + 1]];
+            for a in 1..row.len() {
+                let x = row[a];
+                let cx = triplets[x as usize].1;
+                let mut b = a;
+                while b > 0 && triplets[row[b - 1] as usize].1 > cx {
+                    row[b] = row[b - 1];
+                    b -= 1;
+                }
+                row[b] = x;
+            }
+        }
         let mut row_ptr = vec![0usize; nrows + 1];
         let mut col_idx = Vec::with_capacity(triplets.len());
         let mut values: Vec<f64> = Vec::with_capacity(triplets.len());
@@ -783,7 +808,11 @@ impl SpdSolver {
             view.symbolic(),
             Side::Lower,
             SymmetricOrdering::Amd,
-            CholeskySymbolicParams::default(),
+            // Supernodal always: the triangular solves below walk its dense column panels.
+            CholeskySymbolicParams {
+                supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
+                ..Default::default()
+            },
         )
         .map_err(|e| SparseError::Factorization(format!("{e:?}")))?;
         let mut s = SpdSolver {
@@ -851,13 +880,126 @@ impl SpdSolver {
         self.factor.len()
     }
 
-    /// Solves `A x = b` for a column-major `n × m` block on the calling thread.
+    /// Solves `A x = b` for a column-major `n × m` block on the calling thread, `m` at most
+    /// [`SOLVE_CHUNK`].
     fn solve_block(&self, b: &mut [f64], m: usize) {
-        let fpar = faer::Par::Seq;
-        let llt = LltRef::<usize, f64>::new(&self.symbolic, &self.factor);
-        let mut mem = MemBuffer::new(self.symbolic.solve_in_place_scratch::<f64>(m, fpar));
-        let rhs = MatMut::from_column_major_slice_mut(b, self.n, m);
-        llt.solve_in_place_with_conj(Conj::No, rhs, fpar, MemStack::new(&mut mem));
+        match m {
+            1 => self.solve_block_w::<1>(b, 1),
+            2 => self.solve_block_w::<2>(b, 2),
+            3 | 4 => self.solve_block_w::<4>(b, m),
+            _ => self.solve_block_w::<SOLVE_CHUNK>(b, m),
+        }
+    }
+
+    /// The triangular solves with the supernodal factor for up to `W` right-hand sides,
+    /// interleaved row by row (`x[i·W + j]`) so that the inner loops run over the
+    /// right-hand sides. Every column sees the same operations in the same order whatever
+    /// `W` and the other columns are: the bits of a column do not depend on how columns are
+    /// grouped.
+    fn solve_block_w<const W: usize>(&self, b: &mut [f64], m: usize) {
+        let n = self.n;
+        let SymbolicCholeskyRaw::Supernodal(sym) = self.symbolic.raw() else {
+            // faer chose the simplicial layout (it does so only for degenerate sizes): its own
+            // solve, one column at a time.
+            let fpar = faer::Par::Seq;
+            let llt = LltRef::<usize, f64>::new(&self.symbolic, &self.factor);
+            let mut mem = MemBuffer::new(self.symbolic.solve_in_place_scratch::<f64>(1, fpar));
+            for col in b.chunks_mut(n).take(m) {
+                let rhs = MatMut::from_column_major_slice_mut(col, n, 1);
+                llt.solve_in_place_with_conj(Conj::No, rhs, fpar, MemStack::new(&mut mem));
+            }
+            return;
+        };
+        let (fwd, inv) = match self.symbolic.perm() {
+            Some(p) => {
+                let (f, i) = p.arrays();
+                (Some(f), Some(i))
+            }
+            None => (None, None),
+        };
+        let mut x = vec![[0.0f64; W]; n];
+        for j in 0..m {
+            let col = &b[j * n..(j + 1) * n];
+            match fwd {
+                Some(f) => x.iter_mut().zip(f).for_each(|(xi, &fi)| xi[j] = col[fi]),
+                None => x.iter_mut().zip(col).for_each(|(xi, &c)| xi[j] = c),
+            }
+        }
+        let begin = sym.supernode_begin();
+        let end = sym.supernode_end();
+        let rptr = sym.col_ptr_for_row_idx();
+        let vptr = sym.col_ptr_for_val();
+        let rows = sym.row_idx();
+        let ns = sym.n_supernodes();
+        let max_pat = (0..ns).map(|s| rptr[s + 1] - rptr[s]).max().unwrap_or(0);
+        let mut tmp = vec![[0.0f64; W]; max_pat];
+        // Forward: L y = b.
+        for s in 0..ns {
+            let (c0, c1) = (begin[s], end[s]);
+            let nc = c1 - c0;
+            let pat = &rows[rptr[s]..rptr[s + 1]];
+            let np = pat.len();
+            let ld = nc + np;
+            let vals = &self.factor[vptr[s]..vptr[s + 1]];
+            let tmp = &mut tmp[..np];
+            tmp.iter_mut().for_each(|t| *t = [0.0; W]);
+            for jj in 0..nc {
+                let col = &vals[jj * ld..(jj + 1) * ld];
+                let d = col[jj];
+                let mut xj = x[c0 + jj];
+                for v in xj.iter_mut() {
+                    *v /= d;
+                }
+                x[c0 + jj] = xj;
+                for (xi, &l) in x[c0 + jj + 1..c1].iter_mut().zip(&col[jj + 1..nc]) {
+                    for w in 0..W {
+                        xi[w] -= l * xj[w];
+                    }
+                }
+                for (t, &l) in tmp.iter_mut().zip(&col[nc..]) {
+                    for w in 0..W {
+                        t[w] += l * xj[w];
+                    }
+                }
+            }
+            for (t, &r) in tmp.iter().zip(pat) {
+                let xi = &mut x[r];
+                for w in 0..W {
+                    xi[w] -= t[w];
+                }
+            }
+        }
+        // Backward: Lᵀ x = y.
+        for s in (0..ns).rev() {
+            let (c0, c1) = (begin[s], end[s]);
+            let nc = c1 - c0;
+            let pat = &rows[rptr[s]..rptr[s + 1]];
+            let np = pat.len();
+            let ld = nc + np;
+            let vals = &self.factor[vptr[s]..vptr[s + 1]];
+            let tmp = &mut tmp[..np];
+            for (t, &r) in tmp.iter_mut().zip(pat) {
+                *t = x[r];
+            }
+            for jj in (0..nc).rev() {
+                let col = &vals[jj * ld..(jj + 1) * ld];
+                let mut acc = dot_w::<W>(&col[nc..], tmp);
+                let top = dot_w::<W>(&col[jj + 1..nc], &x[c0 + jj + 1..c1]);
+                let d = col[jj];
+                let xj = &mut x[c0 + jj];
+                for w in 0..W {
+                    acc[w] += top[w];
+                    xj[w] = (xj[w] - acc[w]) / d;
+                }
+            }
+        }
+        for j in 0..m {
+            let col = &mut b[j * n..(j + 1) * n];
+            match inv {
+                Some(iv) => col.iter_mut().zip(iv).for_each(|(c, &ii)| *c = x[ii][j]),
+                None => col.iter_mut().zip(&x).for_each(|(c, xi)| *c = xi[j]),
+            }
+        }
     }
 
     /// Overwrites `b` with `A⁻¹ b`.
@@ -876,8 +1018,8 @@ impl SpdSolver {
     }
 
     /// Overwrites the column-major `n × m` block `b` with `A⁻¹ b`. Columns are solved in
-    /// fixed groups of eight, in parallel under `Par::Rayon`; the result is the same bits
-    /// for any thread count.
+    /// groups of up to eight, in parallel under `Par::Rayon`; each column gets the same bits
+    /// whatever the grouping, so the result does not depend on the thread count.
     pub fn solve_many(&self, b: &mut [f64], m: usize, par: Par) -> Result<(), SparseError> {
         if b.len() != self.n * m {
             return Err(SparseError::DimensionMismatch {
@@ -889,7 +1031,16 @@ impl SpdSolver {
         if self.n == 0 || m == 0 {
             return Ok(());
         }
-        let chunk = self.n * SOLVE_CHUNK;
+        // Groups of at most SOLVE_CHUNK columns; narrower when that leaves threads idle. A
+        // column's bits do not depend on its group (solve_block_w).
+        let width = match par {
+            Par::Seq => SOLVE_CHUNK,
+            Par::Rayon => {
+                let threads = rayon::current_num_threads().max(1);
+                m.div_ceil(threads).clamp(1, SOLVE_CHUNK)
+            }
+        };
+        let chunk = self.n * width;
         match par {
             Par::Seq => b
                 .chunks_mut(chunk)
@@ -900,6 +1051,32 @@ impl SpdSolver {
         }
         Ok(())
     }
+}
+
+/// `Σ_t l[t] · x[t]` per right-hand side, summed in four interleaved partial sums (a fixed
+/// order, so the bits do not depend on `W`).
+#[inline]
+fn dot_w<const W: usize>(l: &[f64], x: &[[f64; W]]) -> [f64; W] {
+    let mut acc = [[0.0f64; W]; 4];
+    let mut lc = l.chunks_exact(4);
+    let mut xc = x.chunks_exact(4);
+    for (lq, xq) in (&mut lc).zip(&mut xc) {
+        for q in 0..4 {
+            for w in 0..W {
+                acc[q][w] += lq[q] * xq[q][w];
+            }
+        }
+    }
+    for (q, (&li, xi)) in lc.remainder().iter().zip(xc.remainder()).enumerate() {
+        for w in 0..W {
+            acc[q][w] += li * xi[w];
+        }
+    }
+    let mut out = [0.0; W];
+    for w in 0..W {
+        out[w] = (acc[0][w] + acc[1][w]) + (acc[2][w] + acc[3][w]);
+    }
+    out
 }
 
 #[cfg(test)]

@@ -52,10 +52,23 @@ fn big_plate() -> TriMesh {
     TriMesh::new(pos, tris)
 }
 
-fn chain(net: &FeatureCurveNetwork, mesh: &TriMesh, par: Par) -> Orbits {
+/// The chain, and the seconds spent in blast, cluster and orbits.
+fn chain(net: &FeatureCurveNetwork, mesh: &TriMesh, par: Par) -> (Orbits, [f64; 3]) {
+    let t0 = Instant::now();
     let m = blast(net, mesh, &BlastParams::default(), par).expect("blast");
+    let t1 = Instant::now();
     let c = cluster(&m, &ClusterParams::default(), par).expect("cluster");
-    orbits(&c, &OrbitParams::default(), par).expect("orbits")
+    let t2 = Instant::now();
+    let o = orbits(&c, &OrbitParams::default(), par).expect("orbits");
+    let t3 = Instant::now();
+    (
+        o,
+        [
+            (t1 - t0).as_secs_f64(),
+            (t2 - t1).as_secs_f64(),
+            (t3 - t2).as_secs_f64(),
+        ],
+    )
 }
 
 fn bench(name: &str, mesh: &TriMesh) {
@@ -72,13 +85,22 @@ fn bench(name: &str, mesh: &TriMesh) {
             .build()
             .expect("thread pool");
         let mut best = f64::INFINITY;
+        let mut stages = [0.0; 3];
         let mut out = None;
         for _ in 0..3 {
             let t0 = Instant::now();
-            let o = pool.install(|| chain(&net, mesh, Par::Rayon));
-            best = best.min(t0.elapsed().as_secs_f64());
+            let (o, st) = pool.install(|| chain(&net, mesh, Par::Rayon));
+            let t = t0.elapsed().as_secs_f64();
+            if t < best {
+                best = t;
+                stages = st;
+            }
             out = Some(o);
         }
+        println!(
+            "  {name}, {threads} thread(s): blast {:.3} s, cluster {:.3} s, orbits {:.3} s",
+            stages[0], stages[1], stages[2]
+        );
         results.push((threads, best, out));
     }
     let o = results[0].2.as_ref().map(|o| o.orbits.len()).unwrap_or(0);

@@ -672,8 +672,8 @@ struct Side<'a> {
 }
 
 /// Mean distance of the segments of `m` steps from (a, i, forward) and (b, j, dir) after
-/// moving a's start onto b's start and rotating by the best rotation about it; the rotation and
-/// the spread of a's segment (second singular value per point).
+/// moving a's start onto b's start and rotating by the best rotation about it, and that
+/// transformation.
 fn segment_distance(
     a: &Side,
     b: &Sampled,
@@ -681,8 +681,7 @@ fn segment_distance(
     j: usize,
     dir: i64,
     m: usize,
-    with_spread: bool,
-) -> (f64, RigidTransform, f64) {
+) -> (f64, RigidTransform) {
     let na = a.pts.len();
     let p0 = a.pts[i];
     let p1 = b.pts[j];
@@ -692,18 +691,6 @@ fn segment_distance(
         va.push(sub(a.pts[(i + k) % na], p0));
         vb.push(sub(b.at(j, k, dir), p1));
     }
-    // Spread about the best line through the segment: second eigenvalue of its covariance.
-    let spread = if with_spread {
-        let c: V3 = scale(
-            va.iter().fold([0.0; 3], |s, v| add(s, *v)),
-            1.0 / va.len() as f64,
-        );
-        let centred: Vec<V3> = va.iter().map(|v| sub(*v, c)).collect();
-        let (_, sv) = kabsch(&centred, &centred, None);
-        sv[1] / va.len() as f64
-    } else {
-        0.0
-    };
     let (r, _) = kabsch(&va, &vb, None);
     let rt = RigidTransform {
         rotation: r,
@@ -723,8 +710,21 @@ fn segment_distance(
             rotation: r,
             translation: t,
         },
-        spread,
     )
+}
+
+/// Spread of a's segment of `m` steps from sample `i` about its best line (second singular
+/// value of its covariance, per point).
+fn segment_spread(a: &Side, i: usize, m: usize) -> f64 {
+    let na = a.pts.len();
+    let va: Vec<V3> = (0..=m).map(|k| a.pts[(i + k) % na]).collect();
+    let c: V3 = scale(
+        va.iter().fold([0.0; 3], |s, v| add(s, *v)),
+        1.0 / va.len() as f64,
+    );
+    let centred: Vec<V3> = va.iter().map(|v| sub(*v, c)).collect();
+    let (_, sv) = kabsch(&centred, &centred, None);
+    sv[1] / va.len() as f64
 }
 
 /// Mean cosine between the rotated normals of a's segment and b's normals (1 without normals).
@@ -765,6 +765,7 @@ fn match_pair(
 ) -> Vec<CurveMatch> {
     let mut votes: Vec<Vote> = Vec::new();
     let min_cos = params.max_normal_angle_deg.to_radians().cos();
+    let mut spread_memo: Vec<(usize, f64)> = vec![(usize::MAX, 0.0); a.pts.len()];
     for &(i, j, dir) in cands {
         let (i, j, dir) = (i as usize, j as usize, dir as i64);
         let avail = sa.avail(i, 1).min(b.avail(j, dir)).min(sc.mmax);
@@ -772,14 +773,25 @@ fn match_pair(
         if m < sc.msig {
             continue;
         }
-        let (mut d, mut t, spread) = segment_distance(a, b, i, j, dir, m, true);
-        if d >= sc.t_low || spread < sc.min_bend2 {
+        // The spread depends on a's segment only: computed once per (sample, length).
+        let spread = if spread_memo[i].0 == m {
+            spread_memo[i].1
+        } else {
+            let s = segment_spread(a, i, m);
+            spread_memo[i] = (m, s);
+            s
+        };
+        if spread < sc.min_bend2 {
+            continue;
+        }
+        let (mut d, mut t) = segment_distance(a, b, i, j, dir, m);
+        if d >= sc.t_low {
             continue;
         }
         // Grow by Δl while the distance stays below t_high; keep the last length that did.
         while m < avail {
             let m2 = (m + sc.dm).min(avail);
-            let (d2, t2, _) = segment_distance(a, b, i, j, dir, m2, false);
+            let (d2, t2) = segment_distance(a, b, i, j, dir, m2);
             if d2 >= sc.t_high {
                 break;
             }

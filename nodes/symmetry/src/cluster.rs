@@ -12,6 +12,16 @@
 //! queue, so the cost is about n log n for n transformations rather than n³.
 //! Reflections (matches against the mirrored network) are clustered separately from proper
 //! motions.
+//!
+//! Consolidation on the geometry (`consolidate`, beyond the thesis): under noise the curves
+//! fragment, and a transformation voted by a short fragment is a few degrees off, which moves
+//! its translation far outside the cluster radius. So the clusters, by decreasing support,
+//! re-estimate their transformation from the pooled point correspondences of all their members
+//! (robust point-to-point Kabsch, then point-to-line Gauss–Newton steps with a small weight
+//! along the curves), and take every unassigned match (same kind, rotation within
+//! `consolidate_angle_deg`) whose correspondences the pooled transformation maps within the
+//! maximal error `max_error` (thesis: t_high = 2 h) on average, until the member set is
+//! stable. The representative transformation is then the pooled fit.
 
 use std::cmp::Reverse;
 use std::collections::{BTreeSet, BinaryHeap};
@@ -20,11 +30,11 @@ use crestflow_flow::{
     check_range, Ctx, ErrorKind, Inputs, NodeError, NodeKind, Outputs, Par, ParamIssue, Port,
     Validate,
 };
-use crestflow_geom::vec3::{dist, V3};
+use crestflow_geom::vec3::{add, dist, norm, scale, sub, V3};
 use serde::{Deserialize, Serialize};
 
 use crate::blast::CurveMatches;
-use crate::transform::{mean_transform, quat_angle_deg, RigidTransform};
+use crate::transform::{fit_rigid, mean_transform, quat_angle_deg, RigidTransform};
 
 /// Parameters of `symmetry.cluster`. Lengths are multiples of the mean edge length h.
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -36,6 +46,17 @@ pub struct ClusterParams {
     pub max_angle_deg: f64,
     /// Matches with an affinity below this (in h) are ignored. In [0, 1e6]. Default 5.
     pub min_affinity: f64,
+    /// Consolidate the clusters on the geometry (see the module docs): re-estimate each
+    /// cluster's transformation from the pooled point correspondences of all its members and
+    /// gather every match whose correspondences that transformation explains. Default true.
+    pub consolidate: bool,
+    /// Maximal mean distance (in h) of a member's correspondences under its cluster's pooled
+    /// transformation (thesis: the hysteresis threshold t_high = 2 h). In (0, 100]. Default 2.
+    pub max_error: f64,
+    /// Matches whose own rotation differs from a cluster's by more than this many degrees are
+    /// not tested for membership (a cheap pre-filter; short fragments under noise are a few
+    /// degrees off). In (0, 90]. Default 8.
+    pub consolidate_angle_deg: f64,
 }
 
 impl Default for ClusterParams {
@@ -44,7 +65,18 @@ impl Default for ClusterParams {
             max_translation: 2.0,
             max_angle_deg: 1.5,
             min_affinity: 5.0,
+            consolidate: true,
+            max_error: 2.0,
+            consolidate_angle_deg: 8.0,
         }
+    }
+}
+
+impl ClusterParams {
+    /// Scale (in h) of the robust weights of the pooled fits: half the maximal error, i.e.
+    /// the thesis's t_low for t_high = 2 t_low.
+    fn t_low_scale(&self) -> f64 {
+        0.5 * self.max_error
     }
 }
 
@@ -60,6 +92,14 @@ impl Validate for ClusterParams {
         );
         check_range(&mut v, "max_angle_deg", self.max_angle_deg, 1e-9, 90.0);
         check_range(&mut v, "min_affinity", self.min_affinity, 0.0, 1e6);
+        check_range(&mut v, "max_error", self.max_error, 1e-9, 100.0);
+        check_range(
+            &mut v,
+            "consolidate_angle_deg",
+            self.consolidate_angle_deg,
+            1e-9,
+            90.0,
+        );
         v
     }
 }
@@ -161,13 +201,260 @@ struct Item {
     mirrored: bool,
     t: RigidTransform,
     member: ClusterMember,
+    /// Correspondences in the item's direction: `t` maps src\[j\] (mirrored first for a
+    /// reflection) onto dst\[j\].
+    src: Vec<V3>,
+    dst: Vec<V3>,
+    /// Centroids of `src` and `dst`.
+    c_src: V3,
+    c_dst: V3,
+}
+
+fn centroid(p: &[V3]) -> V3 {
+    if p.is_empty() {
+        return [0.0; 3];
+    }
+    scale(
+        p.iter().fold([0.0; 3], |s, x| add(s, *x)),
+        1.0 / p.len() as f64,
+    )
+}
+
+impl Item {
+    fn new(
+        mirrored: bool,
+        t: RigidTransform,
+        member: ClusterMember,
+        src: Vec<V3>,
+        dst: Vec<V3>,
+    ) -> Item {
+        let (c_src, c_dst) = (centroid(&src), centroid(&dst));
+        Item {
+            mirrored,
+            t,
+            member,
+            src,
+            dst,
+            c_src,
+            c_dst,
+        }
+    }
+    /// Mean distance of the correspondences under `x` (infinite without correspondences).
+    fn residual(&self, x: &RigidTransform) -> f64 {
+        if self.src.is_empty() {
+            return f64::INFINITY;
+        }
+        self.src
+            .iter()
+            .zip(&self.dst)
+            .map(|(s, d)| dist(x.apply(*s), *d))
+            .sum::<f64>()
+            / self.src.len() as f64
+    }
+}
+
+/// Weight of the residual along the curve in the pooled point-to-line fits.
+const SLIDE_WEIGHT: f64 = 0.1;
+
+/// Unit tangents of a polyline of correspondence targets (central differences; zero where
+/// the neighbours coincide).
+fn tangents(d: &[V3]) -> Vec<V3> {
+    let n = d.len();
+    (0..n)
+        .map(|j| {
+            let a = d[j.saturating_sub(1)];
+            let b = d[(j + 1).min(n.saturating_sub(1))];
+            let e = sub(b, a);
+            let l = norm(e);
+            if l > 0.0 {
+                scale(e, 1.0 / l)
+            } else {
+                [0.0; 3]
+            }
+        })
+        .collect()
+}
+
+/// The rigid transformation that best maps the pooled correspondences of `members`, starting
+/// at `x0`: robust point-to-point fits (iteratively reweighted least squares, Cauchy weights of
+/// scale `c`), then Gauss–Newton steps of the point-to-line distance to the tangents of the
+/// targets. The correspondences come from point-to-line ICP of each curve pair, so where
+/// they slide along the curves is not determined; point-to-line residuals do not count it.
+fn pooled_fit(items: &[Item], members: &[usize], x0: RigidTransform, c: f64) -> RigidTransform {
+    let mut a = Vec::new();
+    let mut b = Vec::new();
+    let mut tan = Vec::new();
+    for &k in members {
+        a.extend_from_slice(&items[k].src);
+        b.extend_from_slice(&items[k].dst);
+        tan.extend(tangents(&items[k].dst));
+    }
+    if a.len() < 3 {
+        return x0;
+    }
+    let mut x = x0;
+    let mut w = vec![0.0; a.len()];
+    for _ in 0..5 {
+        for (j, wj) in w.iter_mut().enumerate() {
+            let r = dist(x.apply(a[j]), b[j]) / c;
+            *wj = 1.0 / (1.0 + r * r);
+        }
+        x = fit_rigid(&a, &b, Some(&w));
+    }
+    // Projectors of the residuals: across the tangent fully, along it with a small weight,
+    // so that the slide along a circle or a straight piece stays determined by the matched
+    // positions.
+    let projs: Vec<nalgebra::Matrix3<f64>> = tan
+        .iter()
+        .map(|t| {
+            let mut proj = nalgebra::Matrix3::<f64>::identity();
+            for r in 0..3 {
+                for q in 0..3 {
+                    proj[(r, q)] -= (1.0 - SLIDE_WEIGHT) * t[r] * t[q];
+                }
+            }
+            proj
+        })
+        .collect();
+    let mut res = vec![nalgebra::Vector3::<f64>::zeros(); a.len()];
+    let mut mags = vec![0.0; a.len()];
+    for _ in 0..10 {
+        for j in 0..a.len() {
+            let p = x.apply(a[j]);
+            res[j] =
+                projs[j] * nalgebra::Vector3::new(p[0] - b[j][0], p[1] - b[j][1], p[2] - b[j][2]);
+            mags[j] = res[j].norm();
+        }
+        // Robust scale: three times the median residual, at most c (exact members of a
+        // noise-free cluster then outweigh partial matches at its rim).
+        let mut sorted = mags.clone();
+        sorted.sort_by(f64::total_cmp);
+        let scale_c = (3.0 * sorted[sorted.len() / 2]).clamp(1e-3 * c, c);
+        let mut jtj = nalgebra::Matrix6::<f64>::zeros();
+        let mut jtr = nalgebra::Vector6::<f64>::zeros();
+        for j in 0..a.len() {
+            let p = x.apply(a[j]);
+            let rn = mags[j] / scale_c;
+            let wj = 1.0 / (1.0 + rn * rn);
+            // d(ω × p)/dω = −[p]×
+            let px = nalgebra::Matrix3::new(0.0, p[2], -p[1], -p[2], 0.0, p[0], p[1], -p[0], 0.0);
+            let mut jac = nalgebra::Matrix3x6::<f64>::zeros();
+            jac.fixed_view_mut::<3, 3>(0, 0).copy_from(&(projs[j] * px));
+            jac.fixed_view_mut::<3, 3>(0, 3).copy_from(&projs[j]);
+            jtj += wj * jac.transpose() * jac;
+            jtr += wj * jac.transpose() * res[j];
+        }
+        let damp = 1e-9 * jtj.trace().max(1e-300);
+        for k in 0..6 {
+            jtj[(k, k)] += damp;
+        }
+        let Some(ch) = jtj.cholesky() else {
+            break;
+        };
+        let dx = ch.solve(&(-jtr));
+        if !dx.iter().all(|v| v.is_finite()) {
+            break;
+        }
+        let omega = [dx[0], dx[1], dx[2]];
+        let angle = norm(omega);
+        let rot = if angle > 0.0 {
+            RigidTransform::rotation_about(omega, angle, [0.0; 3])
+        } else {
+            RigidTransform::identity()
+        };
+        let step = RigidTransform {
+            rotation: rot.rotation,
+            translation: [dx[3], dx[4], dx[5]],
+        };
+        x = step.compose(&x);
+        if dx.norm() < 1e-13 * (1.0 + c) {
+            break;
+        }
+    }
+    x
+}
+
+/// Consolidation on the geometry: clusters by decreasing support re-estimate their
+/// transformation from the pooled correspondences of their members and take every unassigned
+/// match (same kind, rotation within `angle` degrees) whose correspondences the pooled
+/// transformation maps within `e` on average, until the member set is stable.
+fn consolidate(
+    items: &[Item],
+    groups: Vec<(Vec<usize>, RigidTransform, f64)>,
+    e: f64,
+    c: f64,
+    angle: f64,
+    par: Par,
+) -> Vec<(Vec<usize>, RigidTransform)> {
+    let n = items.len();
+    let mut qpts = Vec::with_capacity(2 * n);
+    for (k, it) in items.iter().enumerate() {
+        let q = it.t.quaternion();
+        qpts.push(rstar::primitives::GeomWithData::new(q, k as u32));
+        qpts.push(rstar::primitives::GeomWithData::new(
+            q.map(|x| -x),
+            k as u32,
+        ));
+    }
+    let qtree = rstar::RTree::bulk_load(qpts);
+    // Unit quaternions of rotations δ apart are 2 sin(δ/4) apart.
+    let qr = 2.0 * (0.25 * angle.to_radians()).sin();
+    let mut order: Vec<usize> = (0..groups.len()).collect();
+    order.sort_by(|&a, &b| {
+        groups[b]
+            .2
+            .total_cmp(&groups[a].2)
+            .then(groups[a].0[0].cmp(&groups[b].0[0]))
+    });
+    let mut assigned = vec![false; n];
+    let mut out = Vec::new();
+    for g in order {
+        let seed: Vec<usize> = groups[g]
+            .0
+            .iter()
+            .copied()
+            .filter(|&k| !assigned[k])
+            .collect();
+        let Some(&first) = seed.first() else {
+            continue;
+        };
+        let mirrored = items[first].mirrored;
+        let mut x = pooled_fit(items, &seed, groups[g].1, c);
+        let mut members = seed;
+        for _ in 0..8 {
+            let mut cand: Vec<usize> = qtree
+                .locate_within_distance(x.quaternion(), qr * qr)
+                .map(|p| p.data as usize)
+                .filter(|&k| !assigned[k] && items[k].mirrored == mirrored)
+                .collect();
+            cand.sort_unstable();
+            cand.dedup();
+            cand.retain(|&k| dist(x.apply(items[k].c_src), items[k].c_dst) <= e);
+            let fits = par.map_collect(cand.len(), |q| items[cand[q]].residual(&x) <= e);
+            let mut q = 0;
+            cand.retain(|_| {
+                q += 1;
+                fits[q - 1]
+            });
+            if cand.is_empty() || cand == members {
+                break;
+            }
+            members = cand;
+            x = pooled_fit(items, &members, x, c);
+        }
+        for &k in &members {
+            assigned[k] = true;
+        }
+        out.push((members, x));
+    }
+    out
 }
 
 /// Clusters the transformations of `matches` (see the module docs).
 pub fn cluster(
     matches: &CurveMatches,
     params: &ClusterParams,
-    _par: Par,
+    par: Par,
 ) -> Result<TransformClusters, ClusterError> {
     let issues = params.validate();
     if !issues.is_empty() {
@@ -208,25 +495,36 @@ pub fn cluster(
         } else {
             inv
         };
-        items.push(Item {
-            mirrored: m.mirrored,
-            t: m.transform,
-            member: fwd.clone(),
-        });
+        let src: Vec<V3> = m
+            .correspondences
+            .iter()
+            .map(|[p, _]| if m.mirrored { matches.mirror(*p) } else { *p })
+            .collect();
+        let dst: Vec<V3> = m.correspondences.iter().map(|[_, q]| *q).collect();
+        items.push(Item::new(m.mirrored, m.transform, fwd.clone(), src, dst));
         if m.mirrored && m.curve_a == m.curve_b {
             // A curve mirrored onto itself: the inverse is the same reflection.
             continue;
         }
-        items.push(Item {
-            mirrored: m.mirrored,
-            t: inv_t,
-            member: ClusterMember {
+        // The inverse maps q (mirrored first for a reflection) onto p.
+        let src: Vec<V3> = m
+            .correspondences
+            .iter()
+            .map(|[_, q]| if m.mirrored { matches.mirror(*q) } else { *q })
+            .collect();
+        let dst: Vec<V3> = m.correspondences.iter().map(|[p, _]| *p).collect();
+        items.push(Item::new(
+            m.mirrored,
+            inv_t,
+            ClusterMember {
                 inverse: true,
                 from: m.curve_b,
                 to: m.curve_a,
                 ..fwd
             },
-        });
+            src,
+            dst,
+        ));
     }
     let qs = 0.5 * theta.to_radians();
     let feat = |t: &RigidTransform, sign: f64| -> [f64; 7] {
@@ -322,22 +620,19 @@ pub fn cluster(
             }
         }
     }
-    let mut clusters: Vec<TransformCluster> = Vec::new();
+    // Stage-1 clusters with their representative: the mean weighted by affinity / residual²
+    // (precision weights: a member that aligns its curves exactly is more reliable than one
+    // whose curves only resemble each other), then re-averaged over the members within a
+    // quarter of the cluster radius of it, so that partial (sliding) matches at the rim do not
+    // bias it.
+    let floor = (1e-3 * h).powi(2);
+    let mut groups: Vec<(Vec<usize>, RigidTransform, f64)> = Vec::new();
     for k in 0..n {
         if !alive[k] {
             continue;
         }
         let mut ms: Vec<usize> = members[k].clone();
         ms.sort_unstable();
-        let pairs: BTreeSet<(u32, u32)> = ms
-            .iter()
-            .map(|&i| (items[i].member.from, items[i].member.to))
-            .collect();
-        // The representative: the mean weighted by affinity / residual² (precision weights:
-        // a member that aligns its curves exactly is more reliable than one whose curves only
-        // resemble each other), then re-averaged over the members within a quarter of the
-        // cluster radius of it, so that partial (sliding) matches at the rim do not bias it.
-        let floor = (1e-3 * h).powi(2);
         let list: Vec<(RigidTransform, f64)> = ms
             .iter()
             .map(|&i| {
@@ -357,11 +652,31 @@ pub fn cluster(
             }
             repr = mean_transform(&core);
         }
+        groups.push((ms, repr, weight[k]));
+    }
+    let groups: Vec<(Vec<usize>, RigidTransform)> = if params.consolidate {
+        consolidate(
+            &items,
+            groups,
+            params.max_error * h,
+            params.t_low_scale() * h,
+            params.consolidate_angle_deg,
+            par,
+        )
+    } else {
+        groups.into_iter().map(|(m, t, _)| (m, t)).collect()
+    };
+    let mut clusters: Vec<TransformCluster> = Vec::new();
+    for (ms, repr) in groups {
+        let pairs: BTreeSet<(u32, u32)> = ms
+            .iter()
+            .map(|&i| (items[i].member.from, items[i].member.to))
+            .collect();
         clusters.push(TransformCluster {
-            mirrored: items[k].mirrored,
+            mirrored: items[ms[0]].mirrored,
             transform: repr,
             members: ms.iter().map(|&i| items[i].member.clone()).collect(),
-            support: weight[k],
+            support: ms.iter().map(|&i| items[i].member.affinity).sum(),
             pairs: pairs.len(),
         });
     }

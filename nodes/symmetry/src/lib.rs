@@ -9,6 +9,7 @@
 //! - `symmetry.cluster` ([`cluster`]): [`CurveMatches`] → [`TransformClusters`].
 //! - `symmetry.orbits` ([`orbits`]): [`TransformClusters`] → [`Orbits`] (translation grids,
 //!   rotations by 360°/n, reflections) and a `Report`.
+//! - `symmetry.draw` ([`draw`]): curves coloured by orbit and by cluster (PLY, PNG).
 //!
 //! Lengths in parameters are multiples of the mesh's mean edge length, as in the thesis.
 
@@ -16,6 +17,7 @@ use crestflow_flow::Registry;
 
 pub mod blast;
 pub mod cluster;
+pub mod draw;
 pub mod orbits;
 pub mod transform;
 
@@ -26,6 +28,7 @@ pub use cluster::{
     cluster, ClusterError, ClusterMember, ClusterNode, ClusterParams, TransformCluster,
     TransformClusters,
 };
+pub use draw::{ColorBy, DrawError, DrawNode, DrawParams};
 pub use orbits::{
     orbits, to_report, Generator, Orbit, OrbitError, OrbitParams, Orbits, OrbitsNode,
 };
@@ -36,4 +39,5 @@ pub fn register(registry: &mut Registry) {
     registry.add::<BlastNode>();
     registry.add::<ClusterNode>();
     registry.add::<OrbitsNode>();
+    registry.add::<DrawNode>();
 }

@@ -75,6 +75,13 @@ fn zero_unit_and_bad_params_are_rejected() {
         ..Default::default()
     };
     assert_eq!(c.validate()[0].field, "max_angle_deg");
+    let c = ClusterParams {
+        max_error: 0.0,
+        consolidate_angle_deg: 100.0,
+        ..Default::default()
+    };
+    let fields: Vec<String> = c.validate().into_iter().map(|i| i.field).collect();
+    assert_eq!(fields, vec!["max_error", "consolidate_angle_deg"]);
     let o = OrbitParams {
         min_relative_support: 2.0,
         ..Default::default()

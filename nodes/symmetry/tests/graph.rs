@@ -35,6 +35,8 @@ fn symmetry_graph_runs_on_the_turbine() {
     assert!(n >= 1.0, "{json}");
     assert_eq!(json["orbit_0.kind"], "rotation", "{json}");
     assert!(out.join("render.png").exists());
-    assert!(out.join("orbit_curves.ply").exists());
+    let ply = std::fs::read_to_string(out.join("orbit_curves.ply")).expect("orbit PLY written");
+    assert!(ply.starts_with("ply\n") && ply.contains("property int group"));
+    assert!(out.join("cluster_curves.ply").exists());
     let _ = std::fs::remove_dir_all(&out);
 }

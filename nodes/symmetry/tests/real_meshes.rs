@@ -46,6 +46,11 @@ fn table(bp: &BlastParams) {
     println!("| mesh | vertices | curves | strong | matches | clusters | orbits found | chain s |");
     println!("|---|---|---|---|---|---|---|---|");
     for name in MESHES {
+        if let Ok(f) = std::env::var("SYM_MESH") {
+            if !name.contains(&f) {
+                continue;
+            }
+        }
         let mesh = match load_mesh(
             format!("{root}{name}"),
             &LoadOptions {

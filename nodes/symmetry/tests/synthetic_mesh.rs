@@ -5,7 +5,9 @@
 //! symmetries of each plate are the placements.
 
 use crestflow_flow::Par;
-use crestflow_geom::vec3::{dist, V3};
+use std::collections::BTreeMap;
+
+use crestflow_geom::vec3::{add, cross, dist, dot, norm, scale, sub, V3};
 use crestflow_geom::TriMesh;
 use crestflow_nodes_curvature::{polynomial_curvature, PolynomialParams};
 use crestflow_nodes_ridges::{trace, TraceParams};
@@ -89,12 +91,26 @@ fn pipeline(mesh: &TriMesh, par: Par) -> Orbits {
 }
 
 fn pipeline_with(mesh: &TriMesh, par: Par, bp: &BlastParams, cp: &ClusterParams) -> Orbits {
-    let field = polynomial_curvature(mesh, &PolynomialParams::default(), par)
-        .unwrap()
-        .field;
-    let net = trace(mesh, &field, &TraceParams::default(), par)
-        .unwrap()
-        .network;
+    pipeline_full(
+        mesh,
+        par,
+        &PolynomialParams::default(),
+        &TraceParams::default(),
+        bp,
+        cp,
+    )
+}
+
+fn pipeline_full(
+    mesh: &TriMesh,
+    par: Par,
+    pp: &PolynomialParams,
+    tp: &TraceParams,
+    bp: &BlastParams,
+    cp: &ClusterParams,
+) -> Orbits {
+    let field = polynomial_curvature(mesh, pp, par).unwrap().field;
+    let net = trace(mesh, &field, tp, par).unwrap().network;
     let m = blast(&net, mesh, bp, par).unwrap();
     let c = cluster(&m, cp, par).unwrap();
     let o = orbits(&c, &OrbitParams::default(), par).unwrap();
@@ -263,67 +279,134 @@ fn plate_pipeline_is_identical_sequential_and_parallel() {
     assert_eq!(oa, ob);
 }
 
-/// Recall under Gaussian vertex noise of σ = 0.05 % and 0.1 % of the bounding box diagonal
-/// (thesis Fig. 5.5): the fraction of the four shapes whose generator is found (same kind,
-/// within 1° and 1 mean edge length), with the thesis's defaults and with a shorter minimal
-/// match l0 = 12 h (the bumps' crests are only about 25 h long, and noise fragments them).
-/// Run with `--ignored --nocapture` to see the table.
-#[test]
-#[ignore]
-fn noise_recall_table() {
-    let short = BlastParams {
-        l0: 12.0,
-        signature_length: 6.0,
-        ..Default::default()
-    };
-    for bp in [BlastParams::default(), short] {
-        noise_recall(&bp, &ClusterParams::default());
-    }
-}
-
-fn noise_recall(bp: &BlastParams, cp: &ClusterParams) {
-    let cases: Vec<(&str, TriMesh)> = vec![
+/// The four shapes of the noise experiments.
+fn noise_cases() -> Vec<(&'static str, TriMesh)> {
+    vec![
         ("grid_1d", grid_1d().0),
         ("grid_2d", grid_2d().0),
         ("ring_7", ring(7)),
         ("mirror", mirrored_pair()),
-    ];
-    for level in [0.0005, 0.001] {
-        let mut found = 0;
-        for (seed, (name, mesh)) in cases.iter().enumerate() {
-            let sigma = level * mesh.bbox_diagonal();
-            let noisy = add_noise(mesh, sigma, 17 + seed as u64);
-            let h = noisy.mean_edge_length();
-            let o = pipeline_with(&noisy, Par::Rayon, bp, cp);
-            let ok = o.orbits.iter().any(|orb| match (&orb.generator, *name) {
-                (Generator::Translation { steps }, "grid_1d") => {
-                    close_up_to_sign(steps[0], [6.0, 0.0, 0.0]) < h && orb.instances == 4
-                }
-                (Generator::Translation { steps }, "grid_2d") => {
-                    steps.len() == 2 && orb.instances == 6
-                }
-                (
-                    Generator::Rotation {
-                        order, angle_deg, ..
-                    },
-                    "ring_7",
-                ) => *order == 7 && (angle_deg - 360.0 / 7.0).abs() < 1.0,
-                (Generator::Reflection { normal, offset }, "mirror") => {
-                    normal[0].abs().acos().to_degrees() < 1.0 && offset.abs() < h
-                }
-                _ => false,
-            });
-            let spurious = o.orbits.len() - usize::from(ok);
-            println!(
-                "l0 {} h, noise {level}: {name}: found {ok}, other orbits {spurious}",
-                bp.l0
-            );
-            found += usize::from(ok);
+    ]
+}
+
+/// Whether the generator of case `name` is among the orbits: same kind, translation steps
+/// within one mean edge length h, rotation angle within 1°, mirror normal within 1° and plane
+/// within h.
+fn generator_found(name: &str, o: &Orbits, h: f64) -> bool {
+    o.orbits.iter().any(|orb| match (&orb.generator, name) {
+        (Generator::Translation { steps }, "grid_1d") => {
+            close_up_to_sign(steps[0], [6.0, 0.0, 0.0]) < h && orb.instances == 4
         }
-        println!(
-            "l0 {} h, noise {level}: recall {found}/{}",
-            bp.l0,
-            cases.len()
-        );
+        (Generator::Translation { steps }, "grid_2d") => {
+            let (g1, g2) = ([6.0, 0.0, 0.0], [0.0, 5.0, 0.0]);
+            steps.len() == 2
+                && orb.instances == 6
+                && close_up_to_sign(steps[0], g1).min(close_up_to_sign(steps[1], g1)) < h
+                && close_up_to_sign(steps[0], g2).min(close_up_to_sign(steps[1], g2)) < h
+        }
+        (
+            Generator::Rotation {
+                order, angle_deg, ..
+            },
+            "ring_7",
+        ) => *order == 7 && (angle_deg - 360.0 / 7.0).abs() < 1.0,
+        (Generator::Reflection { normal, offset }, "mirror") => {
+            normal[0].abs().acos().to_degrees() < 1.0 && offset.abs() < h
+        }
+        _ => false,
+    })
+}
+
+/// Denoising before the curvature fit: 10 explicit steps x ← x + ½ (Σ w_j x_j / Σ w_j − x)
+/// with cotangent weights recomputed at every step; boundary vertices stay fixed.
+fn denoise(mesh: &TriMesh) -> TriMesh {
+    let n = mesh.n_vertices();
+    let mut edges: BTreeMap<(u32, u32), u32> = BTreeMap::new();
+    for t in &mesh.triangles {
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            *edges.entry((a.min(b), a.max(b))).or_default() += 1;
+        }
     }
+    let mut fixed = vec![false; n];
+    for (&(a, b), &c) in &edges {
+        if c == 1 {
+            fixed[a as usize] = true;
+            fixed[b as usize] = true;
+        }
+    }
+    let mut x = mesh.positions.clone();
+    for _ in 0..10 {
+        let mut acc = vec![[0.0; 3]; n];
+        let mut wsum = vec![0.0; n];
+        for t in &mesh.triangles {
+            for k in 0..3 {
+                let (i, j, o) = (
+                    t[k] as usize,
+                    t[(k + 1) % 3] as usize,
+                    t[(k + 2) % 3] as usize,
+                );
+                let (u, v) = (sub(x[i], x[o]), sub(x[j], x[o]));
+                let area2 = norm(cross(u, v));
+                if area2 <= 0.0 {
+                    continue;
+                }
+                let w = 0.5 * dot(u, v) / area2;
+                acc[i] = add(acc[i], scale(x[j], w));
+                acc[j] = add(acc[j], scale(x[i], w));
+                wsum[i] += w;
+                wsum[j] += w;
+            }
+        }
+        for v in 0..n {
+            if !fixed[v] && wsum[v] > 0.0 {
+                let target = scale(acc[v], 1.0 / wsum[v]);
+                x[v] = add(x[v], scale(sub(target, x[v]), 0.5));
+            }
+        }
+    }
+    mesh.with_positions(x)
+}
+
+/// Which of the four generators are found at Gaussian vertex noise of σ = `level` × the
+/// bounding box diagonal (seeded), with or without denoising first.
+fn recall(level: f64, smooth: bool) -> Vec<&'static str> {
+    let mut found = Vec::new();
+    for (seed, (name, mesh)) in noise_cases().into_iter().enumerate() {
+        let noisy = add_noise(&mesh, level * mesh.bbox_diagonal(), 17 + seed as u64);
+        let input = if smooth { denoise(&noisy) } else { noisy };
+        let h = input.mean_edge_length();
+        let o = pipeline(&input, Par::Rayon);
+        let ok = generator_found(name, &o, h);
+        println!(
+            "noise {level}, smoothing {smooth}: {name}: found {ok}, other orbits {}",
+            o.orbits.len() - usize::from(ok)
+        );
+        if ok {
+            found.push(name);
+        }
+    }
+    found
+}
+
+/// Recall under Gaussian vertex noise of σ = 0.05 % and 0.1 % of the bounding box diagonal
+/// (thesis Fig. 5.5; σ is then 0.1–0.2 mean edge lengths on these plates), with the curvature
+/// fitted after 10 steps of cotangent smoothing. Noise fragments the traced crests (a 78 h
+/// crest breaks into pieces of 10–25 h), and on the raw noisy mesh only the ring is found at
+/// 0.05 % (see `noise_recall_without_denoising`).
+#[test]
+fn noise_recall_with_denoising() {
+    assert_eq!(
+        recall(0.0005, true),
+        vec!["grid_1d", "grid_2d", "ring_7", "mirror"]
+    );
+    assert_eq!(recall(0.001, true), vec!["ring_7", "mirror"]);
+}
+
+/// The same without smoothing (the ridges are traced on the noisy surface).
+#[test]
+#[ignore]
+fn noise_recall_without_denoising() {
+    assert_eq!(recall(0.0005, false), vec!["ring_7"]);
+    assert_eq!(recall(0.001, false), Vec::<&str>::new());
 }

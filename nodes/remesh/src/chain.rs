@@ -1,0 +1,117 @@
+//! A feature chain as an arc-length parametrised polyline of input vertices: where a feature
+//! vertex slides to (thesis §5.1.1: feature vertices move along their curve only), and how far
+//! an output edge between two points of the chain strays from the chain between them (an edge
+//! may only replace a part of the chain that is straight within a tolerance, so that features
+//! are kept exactly).
+
+use crestflow_geom::vec3::{self, V3};
+
+use crate::bvh::closest_on_segment;
+
+/// One chain: its points in order, their arc lengths, and whether it is a loop without a
+/// corner (then parameters wrap around; the last point repeats the first).
+#[derive(Clone, Debug)]
+pub struct Chain {
+    pts: Vec<V3>,
+    cum: Vec<f64>,
+    closed: bool,
+}
+
+impl Chain {
+    /// `pts` needs at least two points; a `closed` chain repeats its first point at the end.
+    pub fn new(pts: Vec<V3>, closed: bool) -> Chain {
+        let mut cum = Vec::with_capacity(pts.len());
+        let mut s = 0.0;
+        for (i, p) in pts.iter().enumerate() {
+            if i > 0 {
+                s += vec3::dist(pts[i - 1], *p);
+            }
+            cum.push(s);
+        }
+        Chain { pts, cum, closed }
+    }
+
+    pub fn is_closed(&self) -> bool {
+        self.closed
+    }
+
+    /// Arc length of the whole chain.
+    pub fn total(&self) -> f64 {
+        self.cum.last().copied().unwrap_or(0.0)
+    }
+
+    /// First and last point (equal for loops).
+    pub fn ends(&self) -> (V3, V3) {
+        (self.pts[0], self.pts[self.pts.len() - 1])
+    }
+
+    /// `s` wrapped into [0, total) for loops, clamped into [0, total] otherwise.
+    pub fn wrap(&self, s: f64) -> f64 {
+        let t = self.total();
+        if !(t > 0.0) {
+            0.0
+        } else if self.closed {
+            s.rem_euclid(t)
+        } else {
+            s.clamp(0.0, t)
+        }
+    }
+
+    /// The point at arc length `s`.
+    pub fn point_at(&self, s: f64) -> V3 {
+        let s = self.wrap(s);
+        let n = self.pts.len();
+        if n < 2 {
+            return self.pts[0];
+        }
+        let i = self.cum.partition_point(|&c| c <= s).clamp(1, n - 1) - 1;
+        let len = self.cum[i + 1] - self.cum[i];
+        if !(len > 0.0) {
+            return self.pts[i];
+        }
+        vec3::lerp(self.pts[i], self.pts[i + 1], (s - self.cum[i]) / len)
+    }
+
+    /// The stretch of chain between parameters `a` and `b`, as `(lo, hi)` with `lo <= hi`; on a
+    /// loop, the shorter way round (then `hi` may exceed the total length).
+    pub fn interval(&self, a: f64, b: f64) -> (f64, f64) {
+        let (lo, hi) = if a <= b { (a, b) } else { (b, a) };
+        let t = self.total();
+        if self.closed && hi - lo > 0.5 * t {
+            (hi, lo + t)
+        } else {
+            (lo, hi)
+        }
+    }
+
+    /// Middle parameter of the stretch between `a` and `b` (wrapped).
+    pub fn middle(&self, a: f64, b: f64) -> f64 {
+        let (lo, hi) = self.interval(a, b);
+        self.wrap(0.5 * (lo + hi))
+    }
+
+    /// Largest distance from the chain's points strictly inside the stretch between `a` and
+    /// `b` to the segment [pa, pb].
+    pub fn deviation(&self, a: f64, b: f64, pa: V3, pb: V3) -> f64 {
+        let (lo, hi) = self.interval(a, b);
+        let t = self.total();
+        let laps = if self.closed { 2 } else { 1 };
+        let mut worst: f64 = 0.0;
+        for lap in 0..laps {
+            let off = lap as f64 * t;
+            let start = self.cum.partition_point(|&c| c + off <= lo);
+            for i in start..self.pts.len() {
+                if self.cum[i] + off >= hi {
+                    break;
+                }
+                let (q, _) = closest_on_segment(self.pts[i], pa, pb);
+                worst = worst.max(vec3::dist(q, self.pts[i]));
+            }
+        }
+        worst
+    }
+}
+
+#[cfg(test)]
+#[path = "chain_test.rs"]
+mod tests;

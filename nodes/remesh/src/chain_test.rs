@@ -1,0 +1,68 @@
+use super::*;
+
+/// An L: (0,0,0) -> (2,0,0) -> (2,1,0), arc length 3.
+fn ell() -> Chain {
+    Chain::new(
+        vec![
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [2.0, 0.0, 0.0],
+            [2.0, 1.0, 0.0],
+        ],
+        false,
+    )
+}
+
+/// The unit square as a loop, arc length 4.
+fn square() -> Chain {
+    Chain::new(
+        vec![
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.0, 0.0, 0.0],
+        ],
+        true,
+    )
+}
+
+#[test]
+fn points_by_arc_length() {
+    let c = ell();
+    assert_eq!(c.total(), 3.0);
+    assert_eq!(c.point_at(0.5), [0.5, 0.0, 0.0]);
+    assert_eq!(c.point_at(2.5), [2.0, 0.5, 0.0]);
+    assert_eq!(c.point_at(3.0), [2.0, 1.0, 0.0]);
+    // Clamped on an open chain, wrapped on a loop.
+    assert_eq!(c.point_at(7.0), [2.0, 1.0, 0.0]);
+    assert_eq!(square().point_at(4.5), [0.5, 0.0, 0.0]);
+    assert_eq!(square().point_at(-0.5), [0.0, 0.5, 0.0]);
+}
+
+#[test]
+fn straight_stretches_have_no_deviation_and_bends_do() {
+    let c = ell();
+    let p = |s| c.point_at(s);
+    // Straight: (0.2 .. 1.8) passes the inner point (1,0,0) exactly on the segment.
+    assert!(c.deviation(0.2, 1.8, p(0.2), p(1.8)) < 1e-15);
+    // Across the bend at (2,0,0): the chord from (1.5,0,0) to (2,0.5,0) misses it by
+    // 0.5/sqrt(2)/... = the distance of (2,0) to the line x - y = 1.5: 0.5/sqrt(2).
+    let d = c.deviation(1.5, 2.5, p(1.5), p(2.5));
+    assert!((d - 0.5 / 2f64.sqrt()).abs() < 1e-12, "{d}");
+    // Order of the two ends does not matter.
+    assert_eq!(c.deviation(2.5, 1.5, p(2.5), p(1.5)), d);
+}
+
+#[test]
+fn loops_take_the_shorter_way_round() {
+    let c = square();
+    assert_eq!(c.interval(1.5, 2.5), (1.5, 2.5));
+    assert_eq!(c.interval(3.5, 0.5), (3.5, 4.5));
+    assert_eq!(c.interval(0.25, 3.75), (3.75, 4.25));
+    assert_eq!(c.middle(0.25, 3.75), 0.0);
+    // From (0,0.5) over the corner (0,0) to (0.5,0): the corner is 0.5/sqrt(2) off the chord.
+    let (a, b) = (3.5, 0.5);
+    let d = c.deviation(a, b, c.point_at(a), c.point_at(b));
+    assert!((d - 0.5 / 2f64.sqrt()).abs() < 1e-12, "{d}");
+}

@@ -1,0 +1,326 @@
+//! `scale.conform` on networks whose answer is known, and `scale.check` on its outputs.
+
+use crate::check::check_absolute;
+use crate::check_test::network;
+use crate::conflicts::Scale;
+use crate::conform::{build_problem, conform, ConformParams, ScaleError, Solver};
+use crate::network::Graph;
+use crate::network::NetworkError;
+use crestflow_flow::Par;
+use crestflow_geom::vec3::{self, V3};
+use crestflow_geom::{FeatureCurveNetwork, TriMesh};
+
+/// A mesh with bounding-box diagonal 100 (so relative scale 0.01 is r_min = 1).
+fn box_mesh() -> TriMesh {
+    TriMesh::new(
+        vec![[0.0, 0.0, 0.0], [60.0, 0.0, 0.0], [0.0, 80.0, 0.0]],
+        vec![[0, 1, 2]],
+    )
+}
+
+fn params() -> ConformParams {
+    ConformParams {
+        scale: 0.01,
+        ..Default::default()
+    }
+}
+
+/// A polyline from `a` to `b` with `n` segments.
+fn line(a: V3, b: V3, n: usize) -> Vec<V3> {
+    (0..=n)
+        .map(|k| vec3::lerp(a, b, k as f64 / n as f64))
+        .collect()
+}
+
+/// Curves made of the given point lists (open), with one strength per curve.
+fn curves(lines: &[(Vec<V3>, f64)]) -> FeatureCurveNetwork {
+    let mut pts = Vec::new();
+    let mut idx: Vec<Vec<u32>> = Vec::new();
+    for (l, _) in lines {
+        let base = pts.len() as u32;
+        pts.extend_from_slice(l);
+        idx.push((0..l.len() as u32).map(|k| base + k).collect());
+    }
+    let spec: Vec<(&[u32], bool)> = idx.iter().map(|v| (v.as_slice(), false)).collect();
+    let mut net = network(&pts, &spec);
+    let mut k = 0;
+    for (l, s) in lines {
+        for _ in 0..l.len() {
+            net.vertices[k].strength = *s;
+            k += 1;
+        }
+    }
+    net
+}
+
+fn assert_conforming(net: &FeatureCurveNetwork, r_min: f64) {
+    let r = check_absolute(net, r_min, 1.5, Par::Seq).unwrap();
+    assert_eq!(r.violations(), 0, "{}", r.summary());
+}
+
+#[test]
+fn straight_line_is_resampled_into_scale() {
+    // 10 units long, 200 input segments (0.05 each).
+    let net = curves(&[(line([10.0, 10.0, 0.0], [20.0, 10.0, 0.0], 200), 1.0)]);
+    let out = conform(&net, &box_mesh(), &params(), Par::Seq).unwrap();
+    assert_conforming(&out.network, 1.0);
+    let n = out.stats.output_edges;
+    // 10 / 1.5 ≤ n ≤ 10.
+    assert!((7..=10).contains(&n), "{n} edges");
+    assert_eq!(out.network.curves.len(), 1);
+    for v in &out.network.vertices {
+        assert!((v.position[1] - 10.0).abs() < 1e-12 && v.position[2] == 0.0);
+    }
+    // The ends are kept.
+    let c = &out.network.curves[0].vertices;
+    let ends = [
+        out.network.vertices[c[0] as usize].position[0],
+        out.network.vertices[*c.last().unwrap() as usize].position[0],
+    ];
+    assert!(ends.contains(&10.0) && ends.contains(&20.0));
+    assert!(out.stats.converged);
+    assert_eq!(out.stats.repaired_edges, 0);
+}
+
+#[test]
+fn the_weaker_of_two_close_parallel_lines_goes() {
+    let net = curves(&[
+        (line([0.0, 0.0, 0.0], [10.0, 0.0, 0.0], 40), 1.0),
+        (line([0.0, 0.3, 0.0], [10.0, 0.3, 0.0], 40), 3.0),
+    ]);
+    let out = conform(&net, &box_mesh(), &params(), Par::Seq).unwrap();
+    assert_conforming(&out.network, 1.0);
+    assert!(out.stats.output_edges >= 7);
+    for v in &out.network.vertices {
+        assert!((v.position[1] - 0.3).abs() < 1e-12, "{:?}", v.position);
+    }
+    // Both far apart: both stay.
+    let net = curves(&[
+        (line([0.0, 0.0, 0.0], [10.0, 0.0, 0.0], 40), 1.0),
+        (line([0.0, 2.0, 0.0], [10.0, 2.0, 0.0], 40), 3.0),
+    ]);
+    let out = conform(&net, &box_mesh(), &params(), Par::Seq).unwrap();
+    assert_conforming(&out.network, 1.0);
+    assert_eq!(out.network.curves.len(), 2);
+}
+
+#[test]
+fn a_weak_line_between_two_strong_ones_goes_but_greedy_loses_more() {
+    // Middle line (strength 2.5) conflicts with both outer ones (strength 2 each), which do not
+    // conflict with each other: the optimum keeps the outer lines, greedy the middle one.
+    let net = curves(&[
+        (line([0.0, 0.0, 0.0], [10.0, 0.0, 0.0], 40), 2.0),
+        (line([0.0, 0.6, 0.0], [10.0, 0.6, 0.0], 40), 2.5),
+        (line([0.0, 1.2, 0.0], [10.0, 1.2, 0.0], 40), 2.0),
+    ]);
+    let out = conform(&net, &box_mesh(), &params(), Par::Seq).unwrap();
+    assert_conforming(&out.network, 1.0);
+    assert!(out.stats.first_objective > out.stats.greedy_objective);
+    for v in &out.network.vertices {
+        let y = v.position[1];
+        assert!(y.abs() < 1e-12 || (y - 1.2).abs() < 1e-12, "{y}");
+    }
+    let greedy = ConformParams {
+        solver: Solver::Greedy,
+        ..params()
+    };
+    let g = conform(&net, &box_mesh(), &greedy, Par::Seq).unwrap();
+    assert_conforming(&g.network, 1.0);
+    for v in &g.network.vertices {
+        assert!((v.position[1] - 0.6).abs() < 1e-12);
+    }
+}
+
+#[test]
+fn tiny_isolated_curve_disappears() {
+    let net = curves(&[
+        (line([0.0, 0.0, 0.0], [0.4, 0.0, 0.0], 4), 5.0),
+        (line([5.0, 0.0, 0.0], [9.0, 0.0, 0.0], 8), 1.0),
+    ]);
+    let out = conform(&net, &box_mesh(), &params(), Par::Seq).unwrap();
+    assert_conforming(&out.network, 1.0);
+    assert_eq!(out.network.curves.len(), 1);
+    assert!(out.network.vertices.iter().all(|v| v.position[0] >= 5.0));
+}
+
+#[test]
+fn closed_circle_is_kept_as_a_loop() {
+    let n = 100;
+    let pts: Vec<V3> = (0..n)
+        .map(|k| {
+            let t = std::f64::consts::TAU * k as f64 / n as f64;
+            [20.0 + 3.0 * t.cos(), 20.0 + 3.0 * t.sin(), 0.0]
+        })
+        .collect();
+    let idx: Vec<u32> = (0..n as u32).collect();
+    let net = network(&pts, &[(&idx, true)]);
+    let out = conform(&net, &box_mesh(), &params(), Par::Seq).unwrap();
+    assert_conforming(&out.network, 1.0);
+    assert_eq!(out.network.curves.len(), 1);
+    assert!(out.network.curves[0].closed);
+    // Circumference 18.85: between 13 and 18 edges of length in [1, 1.5].
+    assert!((13..=19).contains(&out.stats.output_edges));
+}
+
+/// Random polylines in a box: whatever the input, the output passes the check, and the result
+/// does not depend on the thread count.
+#[test]
+fn random_networks_always_conform() {
+    let mut state = 12345u64;
+    let mut rnd = || {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    };
+    for case in 0..6 {
+        let mut lines = Vec::new();
+        for _ in 0..12 {
+            let mut p = [10.0 * rnd(), 10.0 * rnd(), 2.0 * rnd()];
+            let mut pts = vec![p];
+            let mut dir = [rnd() - 0.5, rnd() - 0.5, 0.2 * (rnd() - 0.5)];
+            for _ in 0..(5 + (rnd() * 30.0) as usize) {
+                dir = vec3::normalize([
+                    dir[0] + 0.6 * (rnd() - 0.5),
+                    dir[1] + 0.6 * (rnd() - 0.5),
+                    dir[2] + 0.1 * (rnd() - 0.5),
+                ]);
+                p = vec3::add(p, vec3::scale(dir, 0.1 + 0.4 * rnd()));
+                pts.push(p);
+            }
+            lines.push((pts, 0.5 + 3.0 * rnd()));
+        }
+        let mut net = curves(&lines);
+        // Join some curves: the end of curve k is the start of curve k + 1.
+        for k in (0..net.curves.len() - 1).step_by(3) {
+            let end = *net.curves[k].vertices.last().unwrap();
+            net.curves[k + 1].vertices[0] = end;
+        }
+        let out = conform(&net, &box_mesh(), &params(), Par::Seq).unwrap();
+        assert_conforming(&out.network, 1.0);
+        let par = conform(&net, &box_mesh(), &params(), Par::Rayon).unwrap();
+        assert_eq!(out, par, "case {case}");
+        assert!(out.stats.first_objective >= out.stats.greedy_objective - 1e-9);
+    }
+}
+
+#[test]
+fn bad_input_is_named() {
+    let mut net = curves(&[(line([0.0, 0.0, 0.0], [5.0, 0.0, 0.0], 5), 1.0)]);
+    net.curves[0].vertices[2] = 99;
+    let err = conform(&net, &box_mesh(), &params(), Par::Seq).unwrap_err();
+    assert_eq!(
+        err,
+        ScaleError::Network(NetworkError::CurveIndex {
+            curve: 0,
+            index: 99,
+            n: 6
+        })
+    );
+    let mut net = curves(&[(line([0.0, 0.0, 0.0], [5.0, 0.0, 0.0], 5), 1.0)]);
+    net.vertices[3].strength = f64::INFINITY;
+    let err = conform(&net, &box_mesh(), &params(), Par::Seq).unwrap_err();
+    assert!(
+        matches!(
+            err,
+            ScaleError::Network(NetworkError::NonFiniteStrength { vertex: 3, .. })
+        ),
+        "{err}"
+    );
+    let net = curves(&[(line([0.0, 0.0, 0.0], [5.0, 0.0, 0.0], 5), 1.0)]);
+    let flat = TriMesh::new(vec![[1.0, 1.0, 1.0]; 3], vec![[0, 1, 2]]);
+    let err = conform(&net, &flat, &params(), Par::Seq).unwrap_err();
+    assert!(matches!(err, ScaleError::NoExtent { .. }));
+    let bad = ConformParams {
+        scale: -1.0,
+        ..params()
+    };
+    let err = conform(&net, &box_mesh(), &bad, Par::Seq).unwrap_err();
+    assert!(err.to_string().contains("scale"), "{err}");
+    let tiny = ConformParams {
+        scale: 1e-9,
+        ..params()
+    };
+    let err = conform(&net, &box_mesh(), &tiny, Par::Seq).unwrap_err();
+    assert!(matches!(err, ScaleError::TooFine { .. }), "{err}");
+    // An empty network is not an error.
+    let out = conform(
+        &FeatureCurveNetwork::default(),
+        &box_mesh(),
+        &params(),
+        Par::Seq,
+    )
+    .unwrap();
+    assert_eq!(out.stats.output_edges, 0);
+}
+
+/// The parallel/orthogonal pair term η_1 cos^{2p}(2θ) (thesis §4.1): 1 for parallel and
+/// orthogonal edges within the radius, 0 at 45°, none beyond the radius; smoothness pairs
+/// η_0 cos^p(2θ) only at shared vertices with a turn of at most 45°.
+#[test]
+fn pair_terms() {
+    // Edge 0: (0,0)-(1.2,0). Edge 1 parallel 1.2 above; edge 2 perpendicular, 1.2 to the
+    // right; edge 3 at 45°, 1.3 below; edge 4 parallel but 5 away. Edge 5 continues edge 0
+    // straight on; edge 6 turns 30° from edge 5's far end.
+    let a = 30f64.to_radians();
+    let pts: Vec<V3> = vec![
+        [0.0, 0.0, 0.0],
+        [1.2, 0.0, 0.0],
+        [0.0, 1.2, 0.0],
+        [1.2, 1.2, 0.0],
+        [2.4, -0.6, 0.0],
+        [2.4, 0.6, 0.0],
+        [0.0, -1.3, 0.0],
+        [0.85, -2.15, 0.0],
+        [0.0, 5.0, 0.0],
+        [1.2, 5.0, 0.0],
+        [-1.2, 0.0, 0.0],
+        [-1.2 - 1.2 * a.cos(), 1.2 * a.sin(), 0.0],
+    ];
+    let net = network(
+        &pts,
+        &[
+            (&[0, 1], false),
+            (&[2, 3], false),
+            (&[4, 5], false),
+            (&[6, 7], false),
+            (&[8, 9], false),
+            (&[10, 0], false),
+            (&[11, 10], false),
+        ],
+    );
+    let g = Graph::from_network(&net, true).unwrap();
+    let s = Scale::new(1.0, 1.5);
+    let params = ConformParams {
+        eta_parallel: 10.0,
+        eta_smooth: 100.0,
+        ..Default::default()
+    };
+    let cw = vec![1.0; net.curves.len()];
+    let (p, _) = build_problem(&g, &s, &cw, &params, Par::Seq);
+    let find = |x: [V3; 2], y: [V3; 2]| {
+        let e = |q: [V3; 2]| {
+            g.edges
+                .iter()
+                .position(|&[u, v]| {
+                    (g.pos[u as usize], g.pos[v as usize]) == (q[0], q[1])
+                        || (g.pos[u as usize], g.pos[v as usize]) == (q[1], q[0])
+                })
+                .unwrap() as u32
+        };
+        let (i, j) = (e(x), e(y));
+        p.pairs
+            .iter()
+            .find(|t| (t.0, t.1) == (i.min(j), i.max(j)))
+            .map(|t| t.2)
+    };
+    let e0 = [pts[0], pts[1]];
+    assert_eq!(find(e0, [pts[2], pts[3]]), Some(10.0));
+    let perp = find(e0, [pts[4], pts[5]]).unwrap();
+    assert!((perp - 10.0).abs() < 1e-9);
+    assert!(find(e0, [pts[6], pts[7]]).is_none_or(|c| c < 1e-6));
+    assert!(find(e0, [pts[8], pts[9]]).is_none());
+    // Smoothness: straight continuation 100, a 30° turn 100 cos²(60°) = 25.
+    assert!((find(e0, [pts[10], pts[0]]).unwrap() - 100.0).abs() < 1e-9);
+    assert!((find([pts[10], pts[0]], [pts[11], pts[10]]).unwrap() - 25.0).abs() < 1e-9);
+}

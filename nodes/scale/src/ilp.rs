@@ -1,0 +1,799 @@
+//! The feature curve selection of thesis §4.3.3.3 as a binary linear program: one binary b_e per
+//! feature edge, one binary b_v per extraordinary vertex in a vertex conflict, one pair variable
+//! b_ij per combined term (smoothness, parallel/orthogonal), and the constraints
+//!
+//! - (4.3) b_ij ≤ b_i, b_ij ≤ b_j;
+//! - (4.4) b_i + b_j ≤ 1 for conflicting edges;
+//! - (4.5) b_u + b_v ≤ 1 for conflicting extraordinary vertices;
+//! - (4.6)–(4.8) a removed vertex keeps at most two edges, linearised as
+//!   Σ_{e∋v} b_e − (deg − 2) b_v ≤ 2 (deg ≥ 3), and b_e − b_v ≤ 0 at a valence-1 vertex (4.7);
+//! - (4.9) a kept short edge keeps at least one other edge at its ends: b_s − Σ b_k ≤ 0;
+//! - (4.10) b_c + b_i + b_j ≤ 2 for every edge e_c in conflict with a short edge (v_i, v_j) and
+//!   every pair of edges e_i at v_i, e_j at v_j.
+//!
+//! The objective Σ w_e b_e + Σ c_ij b_ij is maximised (all coefficients ≥ 0).
+//!
+//! **Decomposition.** An edge that appears with a positive coefficient in no constraint (a *free*
+//! edge) is 1 in some optimum: raising it never violates a constraint (it only appears on the
+//! helping side of (4.9)) and never lowers the objective. Free edges are fixed to 1; their
+//! combined terms with a constrained edge become linear bonuses of that edge. The remaining
+//! variables split into components (union-find over the constraints and the combined terms
+//! between constrained edges), which are independent problems, solved in parallel and
+//! collected in component order.
+
+use std::collections::BTreeMap;
+
+use crestflow_flow::Par;
+use good_lp::{
+    microlp, variable, Expression, ProblemVariables, Solution, SolutionStatus, SolverModel,
+    Variable, WithInitialSolution, WithTimeLimit,
+};
+
+/// A selection problem over the edges of a network.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Problem {
+    pub n_vertices: usize,
+    pub edges: Vec<[u32; 2]>,
+    /// w(e) ≥ 0.
+    pub weight: Vec<f64>,
+    /// Edges that cannot be kept (long edges): b_e = 0.
+    pub fixed_zero: Vec<bool>,
+    /// Short edges (shorter than r_min).
+    pub short: Vec<bool>,
+    /// Conflicting edge pairs (4.4).
+    pub edge_conflicts: Vec<(u32, u32)>,
+    /// Conflicting extraordinary vertex pairs (4.5).
+    pub vertex_conflicts: Vec<(u32, u32)>,
+    /// Combined terms (i, j, coefficient ≥ 0), coefficient already multiplied by η.
+    pub pairs: Vec<(u32, u32, f64)>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+enum Var {
+    Edge(u32),
+    Vertex(u32),
+}
+
+/// Σ coef · var ≤ rhs.
+#[derive(Clone, Debug, PartialEq)]
+struct Lin {
+    terms: Vec<(Var, f64)>,
+    rhs: f64,
+}
+
+/// How to select.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Method {
+    /// The binary program, solved exactly (good_lp with microlp) per component.
+    Ilp,
+    /// Enumeration of every assignment per component (exact; for tests, ≤ 24 binaries).
+    BruteForce,
+    /// Heaviest edge first, kept if it conflicts with nothing kept (the baseline).
+    Greedy,
+}
+
+/// Why a selection failed.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SelectError {
+    #[error(
+        "the solver failed on conflict component {component} ({binaries} binaries): {message}"
+    )]
+    Solver {
+        component: usize,
+        binaries: usize,
+        message: String,
+    },
+    #[error(
+        "conflict component {component} has {binaries} binaries; brute force takes at most 24"
+    )]
+    TooLarge { component: usize, binaries: usize },
+}
+
+/// The selected edges and what it took.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Selection {
+    pub keep: Vec<bool>,
+    /// Kept extraordinary vertices (true for vertices without a vertex variable).
+    pub keep_vertex: Vec<bool>,
+    /// The objective Σ w_e b_e + Σ c_ij min(b_i, b_j).
+    pub objective: f64,
+    pub components: usize,
+    /// Binaries (edge and vertex) of the largest component.
+    pub largest_component: usize,
+    /// Edges fixed to 1 because no constraint involves them.
+    pub free_edges: usize,
+    /// Components whose optimum the solver did not prove within the time limit.
+    pub unproven: usize,
+    /// The part of `objective` that no choice changes: weights of the free edges and the
+    /// combined terms between two free edges. `objective − fixed_objective` is what the
+    /// conflict components contribute.
+    pub fixed_objective: f64,
+}
+
+struct Prepared {
+    constraints: Vec<Lin>,
+    constrained: Vec<bool>,
+    /// Linear objective coefficient of each edge (weight + bonuses from free partners).
+    lin: Vec<f64>,
+    /// Combined terms between two constrained edges.
+    pairs: Vec<(u32, u32, f64)>,
+}
+
+fn raw_constraints(p: &Problem) -> Vec<Lin> {
+    let mut inc: Vec<Vec<u32>> = vec![Vec::new(); p.n_vertices];
+    for (e, &[a, b]) in p.edges.iter().enumerate() {
+        if p.fixed_zero[e] {
+            continue;
+        }
+        inc[a as usize].push(e as u32);
+        if a != b {
+            inc[b as usize].push(e as u32);
+        }
+    }
+    let live = |e: u32| !p.fixed_zero[e as usize];
+    let mut cons: Vec<Lin> = Vec::new();
+    let mut short_conf: BTreeMap<u32, Vec<u32>> = BTreeMap::new();
+    for &(i, j) in &p.edge_conflicts {
+        if live(i) && live(j) {
+            cons.push(Lin {
+                terms: vec![(Var::Edge(i), 1.0), (Var::Edge(j), 1.0)],
+                rhs: 1.0,
+            });
+            if p.short[i as usize] {
+                short_conf.entry(i).or_default().push(j);
+            }
+            if p.short[j as usize] {
+                short_conf.entry(j).or_default().push(i);
+            }
+        }
+    }
+    let mut vvars: Vec<u32> = Vec::new();
+    for &(u, v) in &p.vertex_conflicts {
+        cons.push(Lin {
+            terms: vec![(Var::Vertex(u), 1.0), (Var::Vertex(v), 1.0)],
+            rhs: 1.0,
+        });
+        vvars.push(u);
+        vvars.push(v);
+    }
+    vvars.sort_unstable();
+    vvars.dedup();
+    for &v in &vvars {
+        let es = &inc[v as usize];
+        let deg = es.len();
+        if deg >= 3 {
+            let mut terms: Vec<(Var, f64)> = es.iter().map(|&e| (Var::Edge(e), 1.0)).collect();
+            terms.push((Var::Vertex(v), -((deg - 2) as f64)));
+            cons.push(Lin { terms, rhs: 2.0 });
+        } else if deg == 1 {
+            cons.push(Lin {
+                terms: vec![(Var::Edge(es[0]), 1.0), (Var::Vertex(v), -1.0)],
+                rhs: 0.0,
+            });
+        }
+    }
+    for (s, &[a, b]) in p.edges.iter().enumerate() {
+        if !p.short[s] || p.fixed_zero[s] {
+            continue;
+        }
+        let s = s as u32;
+        let mut terms = vec![(Var::Edge(s), 1.0)];
+        for &k in inc[a as usize].iter().chain(&inc[b as usize]) {
+            if k != s {
+                terms.push((Var::Edge(k), -1.0));
+            }
+        }
+        cons.push(Lin { terms, rhs: 0.0 });
+        if let Some(cs) = short_conf.get(&s) {
+            for &c in cs {
+                for &ei in &inc[a as usize] {
+                    for &ej in &inc[b as usize] {
+                        if ei == s || ej == s || ei == ej || c == ei || c == ej {
+                            continue;
+                        }
+                        cons.push(Lin {
+                            terms: vec![
+                                (Var::Edge(c), 1.0),
+                                (Var::Edge(ei), 1.0),
+                                (Var::Edge(ej), 1.0),
+                            ],
+                            rhs: 2.0,
+                        });
+                    }
+                }
+            }
+        }
+    }
+    cons
+}
+
+fn prepare(p: &Problem) -> Prepared {
+    let ne = p.edges.len();
+    let live = |e: u32| !p.fixed_zero[e as usize];
+    let cons = raw_constraints(p);
+    let mut constrained = vec![false; ne];
+    for c in &cons {
+        for &(v, k) in &c.terms {
+            if let Var::Edge(e) = v {
+                if k > 0.0 {
+                    constrained[e as usize] = true;
+                }
+            }
+        }
+    }
+    // Substitute free edges (1).
+    let mut out: Vec<Lin> = Vec::new();
+    for c in cons {
+        let mut rhs = c.rhs;
+        let mut terms = Vec::new();
+        for (v, k) in c.terms {
+            match v {
+                Var::Edge(e) if !constrained[e as usize] => rhs -= k,
+                _ => terms.push((v, k)),
+            }
+        }
+        if terms.iter().any(|&(_, k)| k > 0.0) {
+            out.push(Lin { terms, rhs });
+        }
+    }
+    let mut lin: Vec<f64> = (0..ne)
+        .map(|e| if p.fixed_zero[e] { 0.0 } else { p.weight[e] })
+        .collect();
+    let mut pairs = Vec::new();
+    for &(i, j, c) in &p.pairs {
+        if !live(i) || !live(j) || c <= 0.0 {
+            continue;
+        }
+        match (constrained[i as usize], constrained[j as usize]) {
+            (true, true) => pairs.push((i, j, c)),
+            (true, false) => lin[i as usize] += c,
+            (false, true) => lin[j as usize] += c,
+            (false, false) => {}
+        }
+    }
+    Prepared {
+        constraints: out,
+        constrained,
+        lin,
+        pairs,
+    }
+}
+
+struct Component {
+    vars: Vec<Var>,
+    constraints: Vec<usize>,
+    pairs: Vec<usize>,
+}
+
+fn find(parent: &mut [usize], mut x: usize) -> usize {
+    while parent[x] != x {
+        parent[x] = parent[parent[x]];
+        x = parent[x];
+    }
+    x
+}
+
+fn components(p: &Problem, pr: &Prepared) -> Vec<Component> {
+    let ne = p.edges.len();
+    let idx = |v: Var| match v {
+        Var::Edge(e) => e as usize,
+        Var::Vertex(u) => ne + u as usize,
+    };
+    let mut parent: Vec<usize> = (0..ne + p.n_vertices).collect();
+    let union = |parent: &mut Vec<usize>, a: usize, b: usize| {
+        let (ra, rb) = (find(parent, a), find(parent, b));
+        if ra != rb {
+            parent[ra.max(rb)] = ra.min(rb);
+        }
+    };
+    let mut used = vec![false; ne + p.n_vertices];
+    for c in &pr.constraints {
+        let first = idx(c.terms[0].0);
+        for &(v, _) in &c.terms {
+            used[idx(v)] = true;
+            union(&mut parent, first, idx(v));
+        }
+    }
+    for &(i, j, _) in &pr.pairs {
+        union(&mut parent, i as usize, j as usize);
+    }
+    let mut by_root: BTreeMap<usize, Component> = BTreeMap::new();
+    for (x, &u) in used.iter().enumerate() {
+        if !u {
+            continue;
+        }
+        let r = find(&mut parent, x);
+        let v = if x < ne {
+            Var::Edge(x as u32)
+        } else {
+            Var::Vertex((x - ne) as u32)
+        };
+        by_root
+            .entry(r)
+            .or_insert_with(|| Component {
+                vars: Vec::new(),
+                constraints: Vec::new(),
+                pairs: Vec::new(),
+            })
+            .vars
+            .push(v);
+    }
+    for (k, c) in pr.constraints.iter().enumerate() {
+        let r = find(&mut parent, idx(c.terms[0].0));
+        if let Some(comp) = by_root.get_mut(&r) {
+            comp.constraints.push(k);
+        }
+    }
+    for (k, &(i, _, _)) in pr.pairs.iter().enumerate() {
+        let r = find(&mut parent, i as usize);
+        if let Some(comp) = by_root.get_mut(&r) {
+            comp.pairs.push(k);
+        }
+    }
+    by_root.into_values().collect()
+}
+
+/// Local index of each variable of a component.
+fn local(comp: &Component) -> BTreeMap<Var, usize> {
+    comp.vars.iter().enumerate().map(|(k, &v)| (v, k)).collect()
+}
+
+fn feasible(pr: &Prepared, comp: &Component, loc: &BTreeMap<Var, usize>, x: &[bool]) -> bool {
+    comp.constraints.iter().all(|&k| {
+        let c = &pr.constraints[k];
+        let lhs: f64 = c
+            .terms
+            .iter()
+            .map(|&(v, a)| if x[loc[&v]] { a } else { 0.0 })
+            .sum();
+        lhs <= c.rhs + 1e-9
+    })
+}
+
+fn comp_objective(pr: &Prepared, comp: &Component, loc: &BTreeMap<Var, usize>, x: &[bool]) -> f64 {
+    let mut f = 0.0;
+    for (k, &v) in comp.vars.iter().enumerate() {
+        if let Var::Edge(e) = v {
+            if x[k] {
+                f += pr.lin[e as usize];
+            }
+        }
+    }
+    for &k in &comp.pairs {
+        let (i, j, c) = pr.pairs[k];
+        if x[loc[&Var::Edge(i)]] && x[loc[&Var::Edge(j)]] {
+            f += c;
+        }
+    }
+    f
+}
+
+fn solve_brute(pr: &Prepared, comp: &Component) -> Vec<bool> {
+    let n = comp.vars.len();
+    let loc = local(comp);
+    let mut best = vec![false; n];
+    let mut best_f = f64::NEG_INFINITY;
+    let mut x = vec![false; n];
+    for mask in 0u64..(1u64 << n) {
+        for (k, xk) in x.iter_mut().enumerate() {
+            *xk = mask >> k & 1 == 1;
+        }
+        if !feasible(pr, comp, &loc, &x) {
+            continue;
+        }
+        let f = comp_objective(pr, comp, &loc, &x);
+        if f > best_f + 1e-9 {
+            best_f = f;
+            best.clone_from(&x);
+        }
+    }
+    best
+}
+
+/// Clique inequalities implied by the pairwise conflicts (4.4)/(4.5) of a component: for each
+/// variable, a clique of the conflict graph grown greedily from it (neighbours in index order).
+/// They cut off fractional LP points (½ on every variable of a dense conflict cluster) without
+/// changing the integer solutions. Returns the cliques (≥ 3 variables, local indices) and, for
+/// each pairwise constraint, whether a clique covers it.
+fn cliques(
+    pr: &Prepared,
+    comp: &Component,
+    loc: &BTreeMap<Var, usize>,
+) -> (Vec<Vec<usize>>, Vec<bool>) {
+    let n = comp.vars.len();
+    let is_pair = |k: usize| {
+        let c = &pr.constraints[k];
+        c.terms.len() == 2 && c.rhs == 1.0 && c.terms.iter().all(|&(_, a)| a == 1.0)
+    };
+    let mut adj: Vec<Vec<usize>> = vec![Vec::new(); n];
+    for &k in &comp.constraints {
+        if is_pair(k) {
+            let c = &pr.constraints[k];
+            let (a, b) = (loc[&c.terms[0].0], loc[&c.terms[1].0]);
+            adj[a].push(b);
+            adj[b].push(a);
+        }
+    }
+    for a in &mut adj {
+        a.sort_unstable();
+        a.dedup();
+    }
+    let mut set = std::collections::BTreeSet::new();
+    for i in 0..n {
+        if adj[i].len() < 2 {
+            continue;
+        }
+        let mut q = vec![i];
+        for &j in &adj[i] {
+            if q.iter().all(|&m| adj[j].binary_search(&m).is_ok()) {
+                q.push(j);
+            }
+        }
+        if q.len() >= 3 {
+            q.sort_unstable();
+            set.insert(q);
+        }
+    }
+    let cl: Vec<Vec<usize>> = set.into_iter().collect();
+    let mut member: Vec<Vec<usize>> = vec![Vec::new(); n];
+    for (c, q) in cl.iter().enumerate() {
+        for &v in q {
+            member[v].push(c);
+        }
+    }
+    let covered = comp
+        .constraints
+        .iter()
+        .map(|&k| {
+            if !is_pair(k) {
+                return false;
+            }
+            let c = &pr.constraints[k];
+            let (a, b) = (loc[&c.terms[0].0], loc[&c.terms[1].0]);
+            member[a].iter().any(|x| member[b].contains(x))
+        })
+        .collect();
+    (cl, covered)
+}
+
+/// The exact selection of one component. Returns the assignment and whether the solver proved
+/// it optimal (false only when `time_limit` ran out; the greedy solution is the warm start,
+/// so the result is never worse than it).
+fn solve_ilp(
+    pr: &Prepared,
+    comp: &Component,
+    ci: usize,
+    time_limit: Option<f64>,
+) -> Result<(Vec<bool>, bool), SelectError> {
+    let n = comp.vars.len();
+    let loc = local(comp);
+    let start = solve_greedy(pr, comp);
+    let mut vars = ProblemVariables::new();
+    let xs: Vec<Variable> = (0..n).map(|_| vars.add(variable().binary())).collect();
+    let ys: Vec<Variable> = comp
+        .pairs
+        .iter()
+        .map(|_| vars.add(variable().min(0.0).max(1.0)))
+        .collect();
+    let mut obj = Expression::from(0.0);
+    for (k, &v) in comp.vars.iter().enumerate() {
+        if let Var::Edge(e) = v {
+            obj += pr.lin[e as usize] * xs[k];
+        }
+    }
+    for (y, &k) in ys.iter().zip(&comp.pairs) {
+        obj += pr.pairs[k].2 * *y;
+    }
+    let mut init: Vec<(Variable, f64)> = xs
+        .iter()
+        .zip(&start)
+        .map(|(&x, &b)| (x, b as u8 as f64))
+        .collect();
+    for (y, &k) in ys.iter().zip(&comp.pairs) {
+        let (i, j, _) = pr.pairs[k];
+        let on = start[loc[&Var::Edge(i)]] && start[loc[&Var::Edge(j)]];
+        init.push((*y, on as u8 as f64));
+    }
+    let mut model = vars.maximise(obj).using(microlp);
+    model = model.with_initial_solution(init);
+    if let Some(t) = time_limit {
+        model = model.with_time_limit(t);
+    }
+    let (cl, covered) = cliques(pr, comp, &loc);
+    for q in &cl {
+        let mut e = Expression::from(0.0);
+        for &v in q {
+            e += xs[v];
+        }
+        model = model.with(e.leq(1.0));
+    }
+    for (t, &k) in comp.constraints.iter().enumerate() {
+        if covered[t] {
+            continue;
+        }
+        let c = &pr.constraints[k];
+        let mut e = Expression::from(0.0);
+        for &(v, a) in &c.terms {
+            e += a * xs[loc[&v]];
+        }
+        model = model.with(e.leq(c.rhs));
+    }
+    for (y, &k) in ys.iter().zip(&comp.pairs) {
+        let (i, j, _) = pr.pairs[k];
+        model = model.with(Expression::from(*y).leq(xs[loc[&Var::Edge(i)]]));
+        model = model.with(Expression::from(*y).leq(xs[loc[&Var::Edge(j)]]));
+    }
+    let sol = match model.solve() {
+        Ok(sol) => sol,
+        // Out of time before the solver reported a solution: keep the warm start.
+        Err(_) if time_limit.is_some() => return Ok((start, false)),
+        Err(e) => {
+            return Err(SelectError::Solver {
+                component: ci,
+                binaries: n,
+                message: e.to_string(),
+            })
+        }
+    };
+    let proven = matches!(sol.status(), SolutionStatus::Optimal);
+    let x: Vec<bool> = xs.iter().map(|&v| sol.value(v) > 0.5).collect();
+    if !feasible(pr, comp, &loc, &x) {
+        return Err(SelectError::Solver {
+            component: ci,
+            binaries: n,
+            message: "the solver returned an infeasible assignment".into(),
+        });
+    }
+    // Never worse than the warm start (a time-limited run may stop before improving on it).
+    if comp_objective(pr, comp, &loc, &x) + 1e-9 < comp_objective(pr, comp, &loc, &start) {
+        return Ok((start, proven));
+    }
+    Ok((x, proven))
+}
+
+fn solve_greedy(pr: &Prepared, comp: &Component) -> Vec<bool> {
+    let n = comp.vars.len();
+    let loc = local(comp);
+    let mut order: Vec<usize> = (0..n)
+        .filter(|&k| matches!(comp.vars[k], Var::Edge(_)))
+        .collect();
+    let w = |k: usize| match comp.vars[k] {
+        Var::Edge(e) => pr.lin[e as usize],
+        Var::Vertex(_) => 0.0,
+    };
+    order.sort_by(|&a, &b| w(b).total_cmp(&w(a)).then(a.cmp(&b)));
+    // Constraints with a negative edge coefficient (4.9) are restored at the end; vertex
+    // variables are raised to 1 exactly when a degree constraint needs them.
+    let mut cons_of: Vec<Vec<usize>> = vec![Vec::new(); n];
+    for &k in &comp.constraints {
+        let c = &pr.constraints[k];
+        if c.terms
+            .iter()
+            .any(|&(v, a)| matches!(v, Var::Edge(_)) && a < 0.0)
+        {
+            continue;
+        }
+        for &(v, _) in &c.terms {
+            cons_of[loc[&v]].push(k);
+        }
+    }
+    let lhs = |k: usize, x: &[bool]| -> f64 {
+        pr.constraints[k]
+            .terms
+            .iter()
+            .map(|&(v, a)| if x[loc[&v]] { a } else { 0.0 })
+            .sum()
+    };
+    let mut x = vec![false; n];
+    for &k in &order {
+        x[k] = true;
+        let mut raised: Vec<usize> = Vec::new();
+        let mut ok = true;
+        for &c in &cons_of[k] {
+            if lhs(c, &x) <= pr.constraints[c].rhs + 1e-9 {
+                continue;
+            }
+            for &(v, a) in &pr.constraints[c].terms {
+                let l = loc[&v];
+                if matches!(v, Var::Vertex(_)) && a < 0.0 && !x[l] {
+                    x[l] = true;
+                    raised.push(l);
+                }
+            }
+            if lhs(c, &x) > pr.constraints[c].rhs + 1e-9 {
+                ok = false;
+                break;
+            }
+        }
+        if ok {
+            ok = raised.iter().all(|&l| {
+                cons_of[l]
+                    .iter()
+                    .all(|&c| lhs(c, &x) <= pr.constraints[c].rhs + 1e-9)
+            });
+        }
+        if !ok {
+            x[k] = false;
+            for l in raised {
+                x[l] = false;
+            }
+        }
+    }
+    // Drop kept short edges left without a neighbour (4.9) until none is.
+    loop {
+        let mut changed = false;
+        for &k in &comp.constraints {
+            if lhs(k, &x) > pr.constraints[k].rhs + 1e-9 {
+                for &(v, a) in &pr.constraints[k].terms {
+                    if a > 0.0 && x[loc[&v]] && matches!(v, Var::Edge(_)) {
+                        x[loc[&v]] = false;
+                        changed = true;
+                        break;
+                    }
+                }
+            }
+        }
+        if !changed {
+            break;
+        }
+    }
+    x
+}
+
+/// The objective of an edge selection on the full problem.
+pub fn objective(p: &Problem, keep: &[bool]) -> f64 {
+    let mut f: f64 = (0..p.edges.len())
+        .filter(|&e| keep[e] && !p.fixed_zero[e])
+        .map(|e| p.weight[e])
+        .sum();
+    for &(i, j, c) in &p.pairs {
+        if keep[i as usize] && keep[j as usize] {
+            f += c;
+        }
+    }
+    f
+}
+
+/// Solves the selection problem `p` with `method`, component by component.
+pub fn select(p: &Problem, method: Method, par: Par) -> Result<Selection, SelectError> {
+    select_with(p, method, None, par)
+}
+
+/// [`select`] with a time limit (seconds) per component for [`Method::Ilp`]: a component
+/// whose search runs out of time keeps the best solution found (at least the greedy one) and
+/// is counted in [`Selection::unproven`].
+pub fn select_with(
+    p: &Problem,
+    method: Method,
+    time_limit: Option<f64>,
+    par: Par,
+) -> Result<Selection, SelectError> {
+    let pr = prepare(p);
+    let comps = components(p, &pr);
+    let sols: Vec<Result<(Vec<bool>, bool), SelectError>> = par.map_collect(comps.len(), |ci| {
+        let comp = &comps[ci];
+        match method {
+            Method::Ilp => solve_ilp(&pr, comp, ci, time_limit),
+            Method::BruteForce => {
+                if comp.vars.len() > 24 {
+                    Err(SelectError::TooLarge {
+                        component: ci,
+                        binaries: comp.vars.len(),
+                    })
+                } else {
+                    Ok((solve_brute(&pr, comp), true))
+                }
+            }
+            Method::Greedy => Ok((solve_greedy(&pr, comp), false)),
+        }
+    });
+    let ne = p.edges.len();
+    let mut keep: Vec<bool> = (0..ne)
+        .map(|e| !p.fixed_zero[e] && !pr.constrained[e])
+        .collect();
+    let free_edges = keep.iter().filter(|&&k| k).count();
+    let mut keep_vertex = vec![true; p.n_vertices];
+    let mut largest = 0;
+    let mut unproven = 0;
+    for (comp, sol) in comps.iter().zip(sols) {
+        let (x, proven) = sol?;
+        if method == Method::Ilp && !proven {
+            unproven += 1;
+        }
+        largest = largest.max(comp.vars.len());
+        for (k, &v) in comp.vars.iter().enumerate() {
+            match v {
+                Var::Edge(e) => keep[e as usize] = x[k],
+                Var::Vertex(u) => keep_vertex[u as usize] = x[k],
+            }
+        }
+    }
+    let objective = objective(p, &keep);
+    let free: Vec<bool> = (0..ne)
+        .map(|e| !p.fixed_zero[e] && !pr.constrained[e])
+        .collect();
+    let fixed_objective = self::objective(p, &free);
+    Ok(Selection {
+        keep,
+        keep_vertex,
+        objective,
+        components: comps.len(),
+        largest_component: largest,
+        free_edges,
+        unproven,
+        fixed_objective,
+    })
+}
+
+/// The optimum of `p` by enumerating every assignment of all its edge and vertex binaries at
+/// once, with no decomposition and no free-edge fixing (for tests; at most 22 binaries).
+pub fn brute_force_full(p: &Problem) -> Option<f64> {
+    let cons = raw_constraints(p);
+    let ne = p.edges.len();
+    let mut vv: Vec<u32> = p
+        .vertex_conflicts
+        .iter()
+        .flat_map(|&(u, v)| [u, v])
+        .collect();
+    vv.sort_unstable();
+    vv.dedup();
+    let n = ne + vv.len();
+    if n > 22 {
+        return None;
+    }
+    let mut best = f64::NEG_INFINITY;
+    let mut keep = vec![false; ne];
+    for mask in 0u64..(1u64 << n) {
+        for (e, k) in keep.iter_mut().enumerate() {
+            *k = mask >> e & 1 == 1;
+        }
+        if (0..ne).any(|e| keep[e] && p.fixed_zero[e]) {
+            continue;
+        }
+        let val = |v: Var| match v {
+            Var::Edge(e) => keep[e as usize],
+            Var::Vertex(u) => {
+                let k = vv.binary_search(&u).expect("vertex variable");
+                mask >> (ne + k) & 1 == 1
+            }
+        };
+        let ok = cons.iter().all(|c| {
+            let lhs: f64 = c
+                .terms
+                .iter()
+                .map(|&(v, a)| if val(v) { a } else { 0.0 })
+                .sum();
+            lhs <= c.rhs + 1e-9
+        });
+        if ok {
+            best = best.max(objective(p, &keep));
+        }
+    }
+    Some(best)
+}
+
+/// Whether the edge selection `keep` with the vertex labels `keep_vertex` satisfies every
+/// constraint (4.4)–(4.10) of `p` (for tests).
+pub fn feasible_full(p: &Problem, keep: &[bool], keep_vertex: &[bool]) -> bool {
+    if (0..p.edges.len()).any(|e| keep[e] && p.fixed_zero[e]) {
+        return false;
+    }
+    raw_constraints(p).iter().all(|c| {
+        let lhs: f64 = c
+            .terms
+            .iter()
+            .map(|&(v, a)| {
+                let on = match v {
+                    Var::Edge(e) => keep[e as usize],
+                    Var::Vertex(u) => keep_vertex[u as usize],
+                };
+                if on {
+                    a
+                } else {
+                    0.0
+                }
+            })
+            .sum();
+        lhs <= c.rhs + 1e-9
+    })
+}

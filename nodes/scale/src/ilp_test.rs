@@ -1,0 +1,268 @@
+//! The selection against brute-force enumeration, and the greedy baseline on instances where
+//! its answer is known to be worse.
+
+use crate::ilp::{
+    brute_force_full, feasible_full, objective, select, select_with, Method, Problem,
+};
+use crestflow_flow::Par;
+
+/// A small deterministic generator (64-bit LCG) so the instances are reproducible.
+struct Lcg(u64);
+impl Lcg {
+    fn next(&mut self) -> u64 {
+        self.0 = self
+            .0
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        self.0 >> 33
+    }
+    fn below(&mut self, n: u64) -> u64 {
+        self.next() % n
+    }
+    fn unit(&mut self) -> f64 {
+        self.next() as f64 / (1u64 << 31) as f64
+    }
+}
+
+/// A random network problem: edges on a few vertices, random conflicts, some short and long
+/// edges, vertex conflicts among vertices of valence 1 or ≥ 3, smoothness pairs at shared
+/// vertices. At most 16 binaries in all.
+fn random_problem(seed: u64) -> Problem {
+    let mut r = Lcg(seed);
+    let nv = 4 + r.below(6) as usize;
+    let ne = 3 + r.below(9) as usize;
+    let mut edges: Vec<[u32; 2]> = Vec::new();
+    while edges.len() < ne {
+        let a = r.below(nv as u64) as u32;
+        let b = r.below(nv as u64) as u32;
+        if a != b
+            && !edges
+                .iter()
+                .any(|e| (e[0], e[1]) == (a, b) || (e[0], e[1]) == (b, a))
+        {
+            edges.push([a, b]);
+        }
+        if edges.len() * 2 >= nv * (nv - 1) {
+            break;
+        }
+    }
+    let ne = edges.len();
+    let mut valence = vec![0; nv];
+    for &[a, b] in &edges {
+        valence[a as usize] += 1;
+        valence[b as usize] += 1;
+    }
+    let extra: Vec<u32> = (0..nv as u32)
+        .filter(|&v| valence[v as usize] == 1 || valence[v as usize] >= 3)
+        .collect();
+    let mut vertex_conflicts = Vec::new();
+    for x in 0..extra.len() {
+        for y in x + 1..extra.len() {
+            if r.below(4) == 0 && ne + 2 * vertex_conflicts.len() + 2 <= 16 {
+                vertex_conflicts.push((extra[x], extra[y]));
+            }
+        }
+    }
+    let mut edge_conflicts = Vec::new();
+    for i in 0..ne as u32 {
+        for j in i + 1..ne as u32 {
+            if r.below(3) == 0 {
+                edge_conflicts.push((i, j));
+            }
+        }
+    }
+    let mut pairs = Vec::new();
+    for i in 0..ne {
+        for j in i + 1..ne {
+            let share = edges[i].iter().any(|v| edges[j].contains(v));
+            if share && r.below(2) == 0 {
+                pairs.push((i as u32, j as u32, 10.0 * r.unit()));
+            }
+        }
+    }
+    Problem {
+        n_vertices: nv,
+        edges,
+        weight: (0..ne).map(|_| 0.1 + 5.0 * r.unit()).collect(),
+        fixed_zero: (0..ne).map(|_| r.below(10) == 0).collect(),
+        short: (0..ne).map(|_| r.below(4) == 0).collect(),
+        edge_conflicts,
+        vertex_conflicts,
+        pairs,
+    }
+}
+
+#[test]
+fn ilp_matches_brute_force_on_random_instances() {
+    let mut worse = 0;
+    for seed in 0..100u64 {
+        let p = random_problem(seed);
+        let best = brute_force_full(&p).expect("at most 22 binaries");
+        let ilp = select(&p, Method::Ilp, Par::Seq).unwrap();
+        let bf = select(&p, Method::BruteForce, Par::Seq).unwrap();
+        let greedy = select(&p, Method::Greedy, Par::Seq).unwrap();
+        assert!(
+            (ilp.objective - best).abs() <= 1e-6 * best.abs().max(1.0),
+            "seed {seed}: ILP {} vs brute force {best}",
+            ilp.objective
+        );
+        assert!((bf.objective - best).abs() <= 1e-6 * best.abs().max(1.0));
+        for sel in [&ilp, &bf, &greedy] {
+            assert!(
+                feasible_full(&p, &sel.keep, &sel.keep_vertex),
+                "seed {seed}"
+            );
+            assert!((objective(&p, &sel.keep) - sel.objective).abs() < 1e-9);
+        }
+        assert!(greedy.objective <= best + 1e-9);
+        if greedy.objective < best - 1e-9 {
+            worse += 1;
+        }
+    }
+    // The instances are hard enough that the greedy baseline misses the optimum on some.
+    assert!(worse > 0);
+}
+
+#[test]
+fn parallel_equals_sequential() {
+    for seed in 0..40u64 {
+        let p = random_problem(seed);
+        let a = select(&p, Method::Ilp, Par::Seq).unwrap();
+        let b = select(&p, Method::Ilp, Par::Rayon).unwrap();
+        assert_eq!(a, b);
+    }
+}
+
+/// A chain of three edges where the middle one conflicts with both others: the greedy keeps the
+/// heaviest (middle) edge, the optimum the two outer ones.
+#[test]
+fn greedy_is_beaten_on_a_conflict_chain() {
+    let p = Problem {
+        n_vertices: 6,
+        edges: vec![[0, 1], [2, 3], [4, 5]],
+        weight: vec![1.0, 1.5, 1.0],
+        fixed_zero: vec![false; 3],
+        short: vec![false; 3],
+        edge_conflicts: vec![(0, 1), (1, 2)],
+        vertex_conflicts: vec![],
+        pairs: vec![],
+    };
+    let ilp = select(&p, Method::Ilp, Par::Seq).unwrap();
+    assert_eq!(ilp.keep, vec![true, false, true]);
+    assert!((ilp.objective - 2.0).abs() < 1e-12);
+    let greedy = select(&p, Method::Greedy, Par::Seq).unwrap();
+    assert_eq!(greedy.keep, vec![false, true, false]);
+    assert!((greedy.objective - 1.5).abs() < 1e-12);
+    assert_eq!(ilp.components, 1);
+}
+
+/// Two T-junctions (vertices 1 and 4) closer than r_min: one of them must drop to two edges,
+/// and the lightest of its three edges goes.
+#[test]
+fn vertex_conflict_downgrades_one_junction() {
+    // Junction 1: edges 0 (0-1), 1 (1-2), 2 (1-3); junction 4: edges 3 (4-5), 4 (4-6), 5 (4-7).
+    let p = Problem {
+        n_vertices: 8,
+        edges: vec![[0, 1], [1, 2], [1, 3], [4, 5], [4, 6], [4, 7]],
+        weight: vec![5.0, 5.0, 0.5, 4.0, 4.0, 3.0],
+        fixed_zero: vec![false; 6],
+        short: vec![false; 6],
+        edge_conflicts: vec![],
+        vertex_conflicts: vec![(1, 4)],
+        pairs: vec![],
+    };
+    let s = select(&p, Method::Ilp, Par::Seq).unwrap();
+    assert_eq!(s.keep, vec![true, true, false, true, true, true]);
+    assert!(!s.keep_vertex[1] && s.keep_vertex[4]);
+    assert!((s.objective - 21.0).abs() < 1e-12);
+}
+
+/// Edges in no constraint are fixed to 1 and the others split into independent components.
+#[test]
+fn free_edges_and_components() {
+    let p = Problem {
+        n_vertices: 12,
+        edges: vec![[0, 1], [2, 3], [4, 5], [6, 7], [8, 9], [10, 11]],
+        weight: vec![1.0; 6],
+        fixed_zero: vec![false, false, false, false, false, true],
+        short: vec![false; 6],
+        edge_conflicts: vec![(0, 1), (2, 3)],
+        vertex_conflicts: vec![],
+        pairs: vec![],
+    };
+    let s = select(&p, Method::Ilp, Par::Rayon).unwrap();
+    assert_eq!(s.components, 2);
+    assert_eq!(s.free_edges, 1);
+    assert!(s.keep[4] && !s.keep[5]);
+    assert_eq!(s.keep[0] as u8 + s.keep[1] as u8, 1);
+    assert!((s.objective - 3.0).abs() < 1e-12);
+}
+
+/// A kept short edge needs another kept edge at one of its ends (4.9); a short edge that
+/// conflicts with e_c forbids keeping e_c together with both neighbours (4.10).
+#[test]
+fn short_edge_constraints() {
+    // Isolated short edge: never kept, whatever its weight.
+    let p = Problem {
+        n_vertices: 2,
+        edges: vec![[0, 1]],
+        weight: vec![100.0],
+        fixed_zero: vec![false],
+        short: vec![true],
+        edge_conflicts: vec![],
+        vertex_conflicts: vec![],
+        pairs: vec![],
+    };
+    let s = select(&p, Method::Ilp, Par::Seq).unwrap();
+    assert_eq!(s.keep, vec![false]);
+    // Edges 0 (0-1), short 1 (1-2), 2 (2-3); edge 3 (4-5) conflicts with the short edge.
+    let p = Problem {
+        n_vertices: 6,
+        edges: vec![[0, 1], [1, 2], [2, 3], [4, 5]],
+        weight: vec![3.0, 0.1, 3.0, 2.0],
+        fixed_zero: vec![false; 4],
+        short: vec![false, true, false, false],
+        edge_conflicts: vec![(1, 3)],
+        vertex_conflicts: vec![],
+        pairs: vec![],
+    };
+    let s = select(&p, Method::Ilp, Par::Seq).unwrap();
+    // Keeping 0, 2, 3 would violate (4.10); the best is 0, 2 and the short edge (6.1) rather
+    // than 3 with one of the neighbours (5).
+    assert_eq!(s.keep, vec![true, true, true, false]);
+    assert_eq!(Some(s.objective), brute_force_full(&p));
+}
+
+#[test]
+fn brute_force_rejects_large_components() {
+    let n = 30;
+    let p = Problem {
+        n_vertices: 2 * n,
+        edges: (0..n as u32).map(|i| [2 * i, 2 * i + 1]).collect(),
+        weight: vec![1.0; n],
+        fixed_zero: vec![false; n],
+        short: vec![false; n],
+        edge_conflicts: (0..n as u32 - 1).map(|i| (i, i + 1)).collect(),
+        vertex_conflicts: vec![],
+        pairs: vec![],
+    };
+    let err = select(&p, Method::BruteForce, Par::Seq).unwrap_err();
+    assert!(err.to_string().contains("30 binaries"), "{err}");
+    // The ILP solves it: alternate edges, 15 of 30.
+    let s = select(&p, Method::Ilp, Par::Seq).unwrap();
+    assert!((s.objective - 15.0).abs() < 1e-9);
+}
+
+/// With a time limit too short to prove anything the result is still feasible and at least as
+/// good as greedy (the warm start).
+#[test]
+fn time_limited_solve_keeps_a_feasible_solution() {
+    for seed in 0..30u64 {
+        let p = random_problem(seed);
+        let s = select_with(&p, Method::Ilp, Some(1e-12), Par::Seq).unwrap();
+        let g = select(&p, Method::Greedy, Par::Seq).unwrap();
+        assert!(feasible_full(&p, &s.keep, &s.keep_vertex), "seed {seed}");
+        assert!(s.objective >= g.objective - 1e-9, "seed {seed}");
+        assert!(s.unproven <= s.components);
+    }
+}
