@@ -29,8 +29,9 @@ use crestflow_nodes_spectral::EigenBasis;
 use crate::dense::{at_d_b, tall_mul, Basis};
 use crate::types::{FmapError, FunctionalMap, PointMap};
 
-/// Queries per block.
-const QUERY_BLOCK: usize = 256;
+/// Queries per block (the screening product of a block reuses each packed source block for
+/// this many queries).
+const QUERY_BLOCK: usize = 1024;
 /// Source rows per block.
 const REF_BLOCK: usize = 256;
 
@@ -81,11 +82,13 @@ impl Validate for PointMapParams {
 ///
 /// Two passes: a screening pass in single precision (half the cost of the dense products)
 /// keeps, per query, every source row whose f32 distance is within twice a rigorous rounding
-/// bound of the best f32 distance; the survivors are then compared exactly in f64. The bound
-/// (dot products of length d: `(d + 8) u (2 |q| P + P²)` with u = 2⁻²³ and P the largest
-/// source norm, doubled for safety) covers the conversion to f32, the dot product in any
-/// summation order and the final subtraction, so the answer is the exact f64 nearest
-/// neighbour.
+/// bound of the best f32 distance; the survivors are then compared exactly in f64. The
+/// screening product computes `‖p‖² − 2 q·p` directly: the source rows are augmented by their
+/// squared norm and scaled by −2 (exact in binary), the queries by a column of ones, so one
+/// dense product of inner size d + 1 gives the screened values and the scan is a plain
+/// minimum. The bound (sums of d + 1 terms: `(d + 9) u (2 |q| P + P²)` with u = 2⁻²³ and P
+/// the largest source norm, doubled for safety) covers the conversions to f32 (inputs and
+/// norms) and the sum in any order, so the answer is the exact f64 nearest neighbour.
 pub fn nearest_neighbors(
     queries: &[f64],
     nq: usize,
@@ -97,35 +100,46 @@ pub fn nearest_neighbors(
     if nr == 0 {
         return vec![0; nq];
     }
-    let q32: Vec<f32> = queries.iter().map(|&x| x as f32).collect();
-    let r32: Vec<f32> = refs.iter().map(|&x| x as f32).collect();
-    let qm = faer::MatRef::from_column_major_slice(&q32, nq, d);
-    let rm = faer::MatRef::from_column_major_slice(&r32, nr, d);
-    let rnorm: Vec<f32> = (0..nr)
-        .map(|x| {
-            (0..d)
-                .map(|j| {
-                    let v = r32[j * nr + x] as f64;
-                    v * v
-                })
-                .sum::<f64>() as f32
-        })
-        .collect();
-    let pmax = (0..nr)
-        .map(|x| (0..d).map(|j| refs[j * nr + x].powi(2)).sum::<f64>())
+    let da = d + 1;
+    // Queries augmented by a column of ones.
+    let mut q32: Vec<f32> = Vec::with_capacity(nq * da);
+    q32.extend(queries[..nq * d].iter().map(|&x| x as f32));
+    q32.resize(nq * da, 1.0);
+    // Source rows scaled by −2 and augmented by their squared norm.
+    let mut r32: Vec<f32> = Vec::with_capacity(nr * da);
+    r32.extend(refs[..nr * d].iter().map(|&x| -2.0 * (x as f32)));
+    // Source rows, row-major (for the norms and the exact comparisons).
+    let rrows = to_rows(refs, nr, d, 0, nr);
+    r32.extend(rrows.chunks_exact(d.max(1)).take(nr).map(|row| {
+        row.iter()
+            .map(|&v| {
+                let v = v as f32 as f64;
+                v * v
+            })
+            .sum::<f64>() as f32
+    }));
+    r32.resize(nr * da, 0.0);
+    let qm = faer::MatRef::from_column_major_slice(&q32, nq, da);
+    let rm = faer::MatRef::from_column_major_slice(&r32, nr, da);
+    let pmax = rrows
+        .chunks_exact(d.max(1))
+        .map(|row| row.iter().map(|v| v.powi(2)).sum::<f64>())
         .fold(0.0, f64::max)
         .sqrt();
     let u = f32::EPSILON as f64;
-    let gamma = 2.0 * (d as f64 + 8.0) * u;
+    let gamma = 2.0 * (da as f64 + 8.0) * u;
     let blocks = nq.div_ceil(QUERY_BLOCK);
     let parts = par.map_collect(blocks, |b| {
         let q0 = b * QUERY_BLOCK;
         let ql = QUERY_BLOCK.min(nq - q0);
         let qb = qm.subrows(q0, ql);
+        // The block's queries, row-major.
+        let qrows = to_rows(queries, nq, d, q0, ql);
         let margin: Vec<f64> = (0..ql)
             .map(|q| {
-                let qn = (0..d)
-                    .map(|j| queries[j * nq + q0 + q].powi(2))
+                let qn = qrows[q * d..(q + 1) * d]
+                    .iter()
+                    .map(|v| v.powi(2))
                     .sum::<f64>()
                     .sqrt();
                 2.0 * gamma * (pmax * pmax + 2.0 * qn * pmax) + f64::MIN_POSITIVE
@@ -134,6 +148,7 @@ pub fn nearest_neighbors(
         let mut best = vec![f64::INFINITY; ql];
         let mut cands: Vec<Vec<(f64, u32)>> = vec![Vec::new(); ql];
         let mut prod = Mat::<f32>::zeros(REF_BLOCK.min(nr), ql);
+        let mut mins = vec![0.0f32; ql];
         let mut r0 = 0;
         while r0 < nr {
             let rl = REF_BLOCK.min(nr - r0);
@@ -145,51 +160,32 @@ pub fn nearest_neighbors(
                 1.0f32,
                 faer::Par::Seq,
             );
-            let pr = prod.as_ref();
-            let rn = &rnorm[r0..r0 + rl];
+            let pr = prod.as_ref().subrows(0, rl);
+            column_minima(pr, &mut mins);
             for q in 0..ql {
-                let col = pr.col(q).subrows(0, rl);
-                let col: &[f32] = match col.try_as_col_major() {
-                    Some(c) => c.as_slice(),
-                    None => unreachable!("a fresh Mat is column-major"),
-                };
-                let mut bv = best[q];
                 let m = margin[q];
-                let list = &mut cands[q];
                 // f32 screen threshold; the exact test below uses f64.
-                let mut thr = widen((bv + m) as f32);
-                for (x, (&c, &r)) in col.iter().zip(rn).enumerate() {
-                    let dd32 = r - 2.0 * c;
-                    if dd32 > thr {
-                        continue;
-                    }
-                    let dd = dd32 as f64;
-                    if dd <= bv + m {
-                        if dd < bv {
-                            bv = dd;
-                            thr = widen((bv + m) as f32);
-                        }
-                        list.push((dd, (r0 + x) as u32));
-                    }
+                if mins[q] > widen((best[q] + m) as f32) {
+                    continue;
                 }
-                if list.len() > 64 {
-                    list.retain(|&(dd, _)| dd <= bv + m);
-                }
-                best[q] = bv;
+                scan_block(column(pr, q), r0, m, &mut best[q], &mut cands[q]);
             }
             r0 += rl;
         }
         (0..ql)
             .map(|q| {
-                let y = q0 + q;
+                let qrow = &qrows[q * d..(q + 1) * d];
                 let mut win = (f64::INFINITY, u32::MAX);
                 for &(dd, x) in &cands[q] {
                     if dd > best[q] + margin[q] {
                         continue;
                     }
-                    let exact: f64 = (0..d)
-                        .map(|j| {
-                            let t = queries[j * nq + y] - refs[j * nr + x as usize];
+                    let x0 = x as usize * d;
+                    let exact: f64 = qrow
+                        .iter()
+                        .zip(&rrows[x0..x0 + d])
+                        .map(|(a, b)| {
+                            let t = a - b;
                             t * t
                         })
                         .sum();
@@ -202,6 +198,124 @@ pub fn nearest_neighbors(
             .collect::<Vec<u32>>()
     });
     parts.into_iter().flatten().collect()
+}
+
+/// Rows `start..start + len` of the column-major n × d matrix `a`, row-major (in tiles of
+/// rows, so the writes stay in cache).
+fn to_rows(a: &[f64], n: usize, d: usize, start: usize, len: usize) -> Vec<f64> {
+    const TILE: usize = 32;
+    let mut out = vec![0.0f64; len * d];
+    let mut t0 = 0;
+    while t0 < len {
+        let tl = TILE.min(len - t0);
+        for j in 0..d {
+            let src = &a[j * n + start + t0..j * n + start + t0 + tl];
+            for (i, &v) in src.iter().enumerate() {
+                out[(t0 + i) * d + j] = v;
+            }
+        }
+        t0 += tl;
+    }
+    out
+}
+
+/// Lanes of the branch-free minimum (a multiple of every SIMD width).
+const LANES: usize = 16;
+/// Values per chunk of the candidate scan.
+const CHUNK: usize = 64;
+
+/// Column `q` of a column-major block as a slice.
+fn column(m: faer::MatRef<'_, f32>, q: usize) -> &[f32] {
+    match m.col(q).try_as_col_major() {
+        Some(c) => c.as_slice(),
+        None => unreachable!("a fresh Mat is column-major"),
+    }
+}
+
+/// The minimum of every column of `m` into `out` (NaN ignored; +∞ for an empty column), with
+/// the widest vector instructions the processor has (the minimum is exact, so the result does
+/// not depend on them).
+fn column_minima(m: faer::MatRef<'_, f32>, out: &mut [f32]) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::arch::is_x86_feature_detected!("avx512f") {
+            // SAFETY: the processor supports AVX-512F (checked just above).
+            unsafe { column_minima_avx512(m, out) };
+            return;
+        }
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the processor supports AVX2 (checked just above).
+            unsafe { column_minima_avx2(m, out) };
+            return;
+        }
+    }
+    column_minima_body(m, out)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+fn column_minima_avx512(m: faer::MatRef<'_, f32>, out: &mut [f32]) {
+    column_minima_body(m, out)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn column_minima_avx2(m: faer::MatRef<'_, f32>, out: &mut [f32]) {
+    column_minima_body(m, out)
+}
+
+#[inline(always)]
+fn column_minima_body(m: faer::MatRef<'_, f32>, out: &mut [f32]) {
+    for (q, o) in out.iter_mut().enumerate().take(m.ncols()) {
+        *o = min_f32(column(m, q));
+    }
+}
+
+/// The smallest value of `v` (NaN ignored; +∞ when empty), branch-free over `LANES`
+/// independent lanes so it vectorises.
+#[inline(always)]
+fn min_f32(v: &[f32]) -> f32 {
+    let mut acc = [f32::INFINITY; LANES];
+    let chunks = v.chunks_exact(LANES);
+    let rest = chunks.remainder();
+    for ch in chunks {
+        for (a, &x) in acc.iter_mut().zip(ch) {
+            *a = if x < *a { x } else { *a };
+        }
+    }
+    acc.iter()
+        .chain(rest)
+        .fold(f32::INFINITY, |m, &x| if x < m { x } else { m })
+}
+
+/// Collects into `list` every row of one screened column (`‖p‖² − 2 q·p` in f32, rows from
+/// `r0`) within `margin` of the best value so far, which it lowers; chunks whose minimum is
+/// above the threshold are skipped.
+fn scan_block(col: &[f32], r0: usize, margin: f64, best: &mut f64, list: &mut Vec<(f64, u32)>) {
+    let mut bv = *best;
+    let mut thr = widen((bv + margin) as f32);
+    for (c, ch) in col.chunks(CHUNK).enumerate() {
+        if min_f32(ch) > thr {
+            continue;
+        }
+        for (i, &v) in ch.iter().enumerate() {
+            if v > thr {
+                continue;
+            }
+            let dd = v as f64;
+            if dd <= bv + margin {
+                if dd < bv {
+                    bv = dd;
+                    thr = widen((bv + margin) as f32);
+                }
+                list.push((dd, (r0 + c * CHUNK + i) as u32));
+            }
+        }
+    }
+    if list.len() > 64 {
+        list.retain(|&(dd, _)| dd <= bv + margin);
+    }
+    *best = bv;
 }
 
 /// `t` moved up by a few f32 ulps (covers the rounding of an f64 bound to f32).

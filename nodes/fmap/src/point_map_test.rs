@@ -35,6 +35,45 @@ fn blocked_search_equals_brute_force() {
     }
 }
 
+#[test]
+fn several_blocks_with_ties_across_blocks_equal_brute_force() {
+    // More queries than three query blocks and sources over several source blocks and scan
+    // chunks, none a multiple of the block sizes; every 97th source row duplicates row 5 and
+    // every 7th query sits on it, so ties span blocks and chunks and the smallest index wins.
+    let mut s = 11;
+    let (nq, nr, d) = (2 * QUERY_BLOCK + 333, 3 * REF_BLOCK + 77, 7);
+    let mut q: Vec<f64> = (0..nq * d).map(|_| lcg(&mut s)).collect();
+    let mut r: Vec<f64> = (0..nr * d).map(|_| lcg(&mut s)).collect();
+    for x in (5..nr).step_by(97) {
+        for j in 0..d {
+            r[j * nr + x] = r[j * nr + 5];
+        }
+    }
+    for y in (0..nq).step_by(7) {
+        for j in 0..d {
+            q[j * nq + y] = r[j * nr + 5];
+        }
+    }
+    let fast = nearest_neighbors(&q, nq, &r, nr, d, Par::Rayon);
+    let seq = nearest_neighbors(&q, nq, &r, nr, d, Par::Seq);
+    assert_eq!(fast, seq);
+    for y in 0..nq {
+        let mut best = (f64::INFINITY, 0);
+        for x in 0..nr {
+            let dd: f64 = (0..d)
+                .map(|j| (q[j * nq + y] - r[j * nr + x]).powi(2))
+                .sum();
+            if dd < best.0 {
+                best = (dd, x);
+            }
+        }
+        assert_eq!(fast[y] as usize, best.1, "query {y}");
+        if y % 7 == 0 {
+            assert_eq!(fast[y], 5, "query {y} sits on row 5");
+        }
+    }
+}
+
 fn identity(k: usize) -> FunctionalMap {
     let mut m = vec![0.0; k * k];
     for i in 0..k {

@@ -9,12 +9,24 @@
 //!   (a when t < 0.5), `Face { f, bary }` the corner with the largest barycentric weight,
 //!   `Free` the nearest corner of the closest face. Consecutive snapped vertices are joined by
 //!   the shortest path over mesh edges (Dijkstra, Euclidean edge lengths; a path is given up
-//!   after 20 000 settled vertices and counted in `segments_unjoined`).
+//!   after 20 000 settled vertices and counted in `segments_unjoined`). Along each stroke of
+//!   the network (its vertices joined through two-edge vertices), detours of the joined paths
+//!   that come back to a vertex already passed are cut out.
 //!
 //! The feature edges form a graph. Its *corners* are vertices with a number of feature edges
-//! other than two, and two-edge vertices where the feature turns by more than a threshold.
-//! Chains are the feature paths between corners, or closed loops without one. In the output,
-//! corners stay where they are, and other feature vertices slide along their chain only.
+//! other than two, and two-edge vertices where the feature turns by more than a threshold;
+//! between two curve edges, the turn is the network's own at a network vertex snapped there
+//! (the edge path's turns do not count). Chains are the feature paths between corners, or
+//! closed loops without one. In the output, corners stay where they are, and other feature
+//! vertices slide along their chain only.
+//!
+//! A chain's points are its input vertices, except for a chain of curve edges only (neither
+//! boundary nor sharp): an edge path zig-zags around a network edge that cuts across mesh
+//! edges, so such a chain takes the network's geometry instead: its two ends, and between
+//! them the positions of the network vertices snapped to its vertices. The other path
+//! vertices get the arc length of their closest point on the network segment they stand for
+//! (never decreasing along the chain) and are slid onto the network's polyline by the
+//! remesher.
 
 use std::cmp::Reverse;
 use std::collections::{BinaryHeap, HashMap};
@@ -48,6 +60,12 @@ pub struct FeatureEdges {
     pub is_feature: Vec<bool>,
     /// Marked by the dihedral angle only (neither boundary nor curve).
     pub sharp_only: Vec<bool>,
+    /// Marked by the curves only (neither boundary nor sharp).
+    pub from_curve: Vec<bool>,
+    /// Per input vertex that a network vertex snaps to: that network vertex's position and
+    /// the cosine of the network's turning angle there (-2 where the network has a number of
+    /// edges other than two; the smallest when several network vertices snap to one vertex).
+    pub anchor: Vec<Option<(V3, f64)>>,
     /// Sharp edges dropped by [`prune_short_sharp_chains`].
     pub pruned: usize,
     pub boundary: usize,
@@ -74,6 +92,8 @@ pub fn mark_features(
     let mut fe = FeatureEdges {
         is_feature: vec![false; ne],
         sharp_only: vec![false; ne],
+        from_curve: vec![false; ne],
+        anchor: vec![None; mesh.n_vertices()],
         ..Default::default()
     };
     let normals = mesh.face_normals();
@@ -105,29 +125,185 @@ pub fn mark_features(
                     n: net.vertices.len(),
                 });
             }
-            for (a, b) in net.curve_edges(ci) {
+        }
+        // Network neighbours of each network vertex, for its turning angle.
+        let mut nbrs: Vec<Vec<u32>> = vec![Vec::new(); net.vertices.len()];
+        for (a, b) in net.edges() {
+            nbrs[a as usize].push(b);
+            nbrs[b as usize].push(a);
+        }
+        // Cosine of the network's turning angle at each network vertex (-2 where it has a
+        // number of edges other than two).
+        let turn_cos: Vec<f64> = nbrs
+            .iter()
+            .enumerate()
+            .map(|(i, ns)| {
+                let q = |k: u32| net.vertices[k as usize].position;
+                let pi = net.vertices[i].position;
+                if ns.len() != 2 {
+                    return -2.0;
+                }
+                let (d1, d2) = (vec3::sub(pi, q(ns[0])), vec3::sub(q(ns[1]), pi));
+                let (n1, n2) = (vec3::norm(d1), vec3::norm(d2));
+                if n1 > 0.0 && n2 > 0.0 {
+                    vec3::dot(d1, d2) / (n1 * n2)
+                } else {
+                    1.0
+                }
+            })
+            .collect();
+        for stroke in strokes(net) {
+            // The stroke's edge path as (mesh vertex, network vertex or NONE_NET) pairs, in
+            // pieces between segments that could not be joined.
+            let mut pieces: Vec<Vec<(u32, u32)>> = Vec::new();
+            let closed = stroke.len() > 2 && stroke[0] == stroke[stroke.len() - 1];
+            let v0 = stroke[0];
+            let mut seq = vec![(snapped[v0 as usize], v0)];
+            for ab in stroke.windows(2) {
+                let (a, b) = (ab[0], ab[1]);
                 let (u, w) = (snapped[a as usize], snapped[b as usize]);
                 if u == w {
                     continue;
                 }
                 match shortest_path(mesh, u, w) {
                     Some(path) => {
-                        for p in path.windows(2) {
-                            if let Some(e) = topo.find_edge(p[0], p[1]) {
-                                fe.sharp_only[e as usize] = false;
-                                if !fe.is_feature[e as usize] {
-                                    fe.is_feature[e as usize] = true;
-                                    fe.from_curves += 1;
-                                }
-                            }
+                        let n = path.len();
+                        seq.extend(
+                            path.into_iter()
+                                .enumerate()
+                                .skip(1)
+                                .map(|(i, x)| (x, if i + 1 == n { b } else { NONE_NET })),
+                        );
+                    }
+                    None => {
+                        fe.segments_unjoined += 1;
+                        pieces.push(std::mem::replace(&mut seq, vec![(w, b)]));
+                    }
+                }
+            }
+            pieces.push(seq);
+            let loop_closes = closed && pieces.len() == 1;
+            for piece in pieces {
+                let path = erase_loops(piece, loop_closes);
+                let mut mark = |x: u32, y: u32| {
+                    if let Some(e) = topo.find_edge(x, y) {
+                        fe.sharp_only[e as usize] = false;
+                        if !fe.is_feature[e as usize] {
+                            fe.is_feature[e as usize] = true;
+                            fe.from_curve[e as usize] = true;
+                            fe.from_curves += 1;
                         }
                     }
-                    None => fe.segments_unjoined += 1,
+                };
+                for w in path.windows(2) {
+                    mark(w[0].0, w[1].0);
+                }
+                if loop_closes && path.len() > 2 {
+                    mark(path[path.len() - 1].0, path[0].0);
+                }
+                for &(m, n) in &path {
+                    if n == NONE_NET {
+                        continue;
+                    }
+                    let (pn, cos) = (net.vertices[n as usize].position, turn_cos[n as usize]);
+                    let slot = &mut fe.anchor[m as usize];
+                    *slot = Some(match *slot {
+                        None => (pn, cos),
+                        Some((p, c)) => (p, c.min(cos)),
+                    });
                 }
             }
         }
     }
     Ok(fe)
+}
+
+/// The network's edges as strokes: lists of network vertices joined through vertices with
+/// two edges, from one vertex with another number of edges to the next (across curves that
+/// meet end to end), then the loops that remain (first vertex repeated at the end).
+fn strokes(net: &FeatureCurveNetwork) -> Vec<Vec<u32>> {
+    let edges = net.edges();
+    let mut adj: Vec<Vec<(u32, usize)>> = vec![Vec::new(); net.vertices.len()];
+    for (e, &(a, b)) in edges.iter().enumerate() {
+        adj[a as usize].push((b, e));
+        adj[b as usize].push((a, e));
+    }
+    let mut used = vec![false; edges.len()];
+    let mut out = Vec::new();
+    let walk = |v: u32, used: &mut [bool], out: &mut Vec<Vec<u32>>| {
+        for k in 0..adj[v as usize].len() {
+            let (mut u, mut e) = adj[v as usize][k];
+            if used[e] {
+                continue;
+            }
+            let mut stroke = vec![v];
+            loop {
+                used[e] = true;
+                stroke.push(u);
+                if adj[u as usize].len() != 2 {
+                    break;
+                }
+                match adj[u as usize].iter().find(|&&(_, f)| !used[f]) {
+                    Some(&(w, f)) => (u, e) = (w, f),
+                    None => break,
+                }
+            }
+            out.push(stroke);
+        }
+    };
+    for v in 0..net.vertices.len() as u32 {
+        if adj[v as usize].len() != 2 {
+            walk(v, &mut used, &mut out);
+        }
+    }
+    for v in 0..net.vertices.len() as u32 {
+        if adj[v as usize].len() == 2 {
+            walk(v, &mut used, &mut out);
+        }
+    }
+    out
+}
+
+/// No network vertex at this path vertex.
+const NONE_NET: u32 = u32::MAX;
+
+/// The path `seq` without the detours that come back to a vertex already on it (the edge
+/// paths of two consecutive network edges may overlap, or touch, near the network vertex
+/// between them): each detour is cut out, and the first network vertex on it moves to the
+/// vertex where it starts (unless that one has a network vertex already). On a closed curve
+/// (`closed`), the last vertex repeats the first and is left out.
+fn erase_loops(mut seq: Vec<(u32, u32)>, closed: bool) -> Vec<(u32, u32)> {
+    if closed && seq.len() > 1 && seq[0].0 == seq[seq.len() - 1].0 {
+        let (_, n) = seq.pop().unwrap_or((0, NONE_NET));
+        if seq[0].1 == NONE_NET {
+            seq[0].1 = n;
+        }
+    }
+    let mut out: Vec<(u32, u32)> = Vec::with_capacity(seq.len());
+    let mut at: HashMap<u32, usize> = HashMap::new();
+    for (m, n) in seq {
+        match at.get(&m) {
+            Some(&i) => {
+                // Earliest network vertex on the detour (popped in reverse order), or `n`.
+                let mut carried = n;
+                while out.len() > i + 1 {
+                    let (pm, pn) = out.pop().unwrap_or((0, NONE_NET));
+                    at.remove(&pm);
+                    if pn != NONE_NET {
+                        carried = pn;
+                    }
+                }
+                if out[i].1 == NONE_NET {
+                    out[i].1 = carried;
+                }
+            }
+            None => {
+                at.insert(m, out.len());
+                out.push((m, n));
+            }
+        }
+    }
+    out
 }
 
 /// The mesh vertex of each network vertex (see the module docs for the rule).
@@ -272,6 +448,9 @@ pub struct Chains {
     pub vertex_param: Vec<f64>,
     /// Per chain: a loop without a corner (its parameter wraps around).
     pub closed: Vec<bool>,
+    /// Per chain: made of curve edges only; its points are then the network's own (the
+    /// chain's ends and the network vertices in between), not the edge path's.
+    pub from_curves: Vec<bool>,
 }
 
 /// Splits the feature edges into chains; `corner_angle_deg` is the turning angle above which a
@@ -297,11 +476,17 @@ pub fn build_chains(mesh: &TriMesh, fe: &FeatureEdges, corner_angle_deg: f64) ->
     };
     let cos_corner = corner_angle_deg.to_radians().cos();
     let p = |v: u32| mesh.positions[v as usize];
+    let curve_edge = |e: u32| fe.from_curve.get(e as usize).copied().unwrap_or(false);
     let is_corner: Vec<bool> = (0..nv as u32)
         .map(|v| {
             let es = &inc[v as usize];
             match es.len() {
                 0 => false,
+                // Inside a curve, the network decides: its turns, not those of the edge path.
+                2 if curve_edge(es[0]) && curve_edge(es[1]) => match fe.anchor.get(v as usize) {
+                    Some(Some((_, cos))) => *cos < cos_corner,
+                    _ => false,
+                },
                 2 => {
                     let (x, y) = (other(es[0], v), other(es[1], v));
                     let d1 = vec3::normalize(vec3::sub(p(v), p(x)));
@@ -317,6 +502,7 @@ pub fn build_chains(mesh: &TriMesh, fe: &FeatureEdges, corner_angle_deg: f64) ->
     let mut vertex_param = vec![0.0; nv];
     let mut closed = Vec::new();
     let mut points = Vec::new();
+    let mut from_curves = Vec::new();
     // Walk from every corner along each of its feature edges, then the loops that remain.
     let mut walk = |start: u32,
                     first: u32,
@@ -324,19 +510,18 @@ pub fn build_chains(mesh: &TriMesh, fe: &FeatureEdges, corner_angle_deg: f64) ->
                     vertex_chain: &mut Vec<u32>,
                     vertex_param: &mut Vec<f64>| {
         let id = points.len() as u32;
-        let mut pts = vec![p(start)];
+        let mut vs = vec![start];
         let (mut v, mut e) = (start, first);
-        let mut s = 0.0;
+        let mut all_curve = true;
         loop {
             edge_chain[e as usize] = id;
+            all_curve &= curve_edge(e);
             let w = other(e, v);
-            s += vec3::dist(p(v), p(w));
-            pts.push(p(w));
+            vs.push(w);
             if w == start || is_corner[w as usize] {
                 break;
             }
             vertex_chain[w as usize] = id;
-            vertex_param[w as usize] = s;
             let es = &inc[w as usize];
             let next = if es[0] == e { es[1] } else { es[0] };
             if edge_chain[next as usize] != u32::MAX {
@@ -347,10 +532,83 @@ pub fn build_chains(mesh: &TriMesh, fe: &FeatureEdges, corner_angle_deg: f64) ->
         }
         if !is_corner[start as usize] {
             vertex_chain[start as usize] = id;
+        }
+        let last = vs.len() - 1;
+        // Vertices that get a parameter: all but the ends, and the last one when the walk
+        // stopped at an edge already taken rather than at a corner or back at the start.
+        let inside = |i: usize| i < last || (vs[i] != start && !is_corner[vs[i] as usize]);
+        let pts = if all_curve {
+            // The network's own geometry: the chain's ends, and the network vertices in
+            // between; each path vertex between two of them gets the parameter of its closest
+            // point on the segment joining them (never decreasing along the chain).
+            let mut pts = vec![p(vs[0])];
+            for (i, &w) in vs.iter().enumerate().skip(1) {
+                let anchor = if i == last {
+                    Some(p(w))
+                } else {
+                    fe.anchor.get(w as usize).copied().flatten().map(|a| a.0)
+                };
+                // Anchors are marked with their reference index, other vertices with NaN.
+                if inside(i) {
+                    vertex_param[w as usize] = if anchor.is_some() {
+                        pts.len() as f64
+                    } else {
+                        f64::NAN
+                    };
+                }
+                if let Some(q) = anchor {
+                    pts.push(q);
+                }
+            }
+            // Parameters: anchors at their reference point, path vertices between two at the
+            // closest point of the segment joining them, never decreasing along the chain.
+            let mut prev: f64 = 0.0;
+            let mut k = 0; // index of the reference segment [pts[k], pts[k + 1]]
+            let mut cums = vec![0.0; pts.len()];
+            for j in 1..pts.len() {
+                cums[j] = cums[j - 1] + vec3::dist(pts[j - 1], pts[j]);
+            }
+            for (i, &w) in vs.iter().enumerate().skip(1) {
+                if !inside(i) {
+                    continue;
+                }
+                let s = vertex_param[w as usize];
+                let s = if s.is_nan() {
+                    let (a, b) = (pts[k], pts[(k + 1).min(pts.len() - 1)]);
+                    let d = vec3::sub(b, a);
+                    let len2 = vec3::dot(d, d);
+                    let t = if len2 > 0.0 {
+                        (vec3::dot(vec3::sub(p(w), a), d) / len2).clamp(0.0, 1.0)
+                    } else {
+                        0.0
+                    };
+                    cums[k] + t * len2.sqrt()
+                } else {
+                    k += 1;
+                    cums[k]
+                };
+                prev = s.max(prev);
+                vertex_param[w as usize] = prev;
+            }
+            pts
+        } else {
+            let mut pts = vec![p(vs[0])];
+            let mut s = 0.0;
+            for (i, &w) in vs.iter().enumerate().skip(1) {
+                s += vec3::dist(p(vs[i - 1]), p(w));
+                pts.push(p(w));
+                if inside(i) {
+                    vertex_param[w as usize] = s;
+                }
+            }
+            pts
+        };
+        if !is_corner[start as usize] {
             vertex_param[start as usize] = 0.0;
         }
         closed.push(!is_corner[start as usize]);
         points.push(pts);
+        from_curves.push(all_curve);
     };
     for v in 0..nv as u32 {
         if is_corner[v as usize] {
@@ -376,6 +634,7 @@ pub fn build_chains(mesh: &TriMesh, fe: &FeatureEdges, corner_angle_deg: f64) ->
         points,
         vertex_param,
         closed,
+        from_curves,
     }
 }
 
@@ -429,3 +688,7 @@ pub fn prune_short_sharp_chains(
     }
     build_chains(mesh, fe, corner_angle_deg)
 }
+
+#[cfg(test)]
+#[path = "features_test.rs"]
+mod tests;

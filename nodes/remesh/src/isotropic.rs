@@ -27,7 +27,8 @@
 //! vertex is only removed by collapsing along its own chain into a vertex of the same chain or
 //! a corner; corners (see [`crate::features`]) never move and are never removed; other feature
 //! vertices slide along their chain (the arc-length parametrised polyline of input feature
-//! edges, [`crate::chain`]) to the middle of their two chain neighbours; split feature edges
+//! edges, [`crate::chain`]; for a chain of curve edges, the network's own polyline, onto which
+//! its vertices move) to the middle of their two chain neighbours; split feature edges
 //! get their new vertex at the middle of their stretch of chain. Every output feature edge
 //! stays within `feature_tolerance` · L of the stretch of chain it replaces: a slide or a
 //! collapse that would cut a bend of the chain is not made, so the bends of a feature (and
@@ -363,6 +364,10 @@ fn isotropic_with(
         .set("feature_edges_out", tagged)
         .set("feature_chains", chains.points.len())
         .set(
+            "feature_chains_from_curves",
+            chains.from_curves.iter().filter(|&&c| c).count(),
+        )
+        .set(
             "feature_corners",
             chains.is_corner.iter().filter(|&&c| c).count(),
         )
@@ -508,11 +513,12 @@ impl State<'_> {
     }
 
     /// Whether the chain between `x` and `y` (both on chain `c`, `near` a parameter between
-    /// them) stays within the tolerance of the segment from `px` to `py`.
-    fn chain_straight(&self, c: u32, x: u32, y: u32, near: f64, px: V3, py: V3) -> bool {
+    /// them) stays within the tolerance of the segment joining their places on the chain.
+    fn chain_straight(&self, c: u32, x: u32, y: u32, near: f64) -> bool {
         let sx = self.param_on(x, c, near);
         let sy = self.param_on(y, c, near);
-        self.chains[c as usize].deviation(sx, sy, px, py) <= self.tol
+        let ch = &self.chains[c as usize];
+        ch.deviation(sx, sy, ch.point_at(sx), ch.point_at(sy)) <= self.tol
     }
 
     /// Whether vertex `a` may disappear into `b` along the edge of `h` (feature rules only):
@@ -534,7 +540,7 @@ impl State<'_> {
                     return false;
                 }
                 let s = self.param[a as usize];
-                self.chain_straight(c, x, b, s, self.he.position(x), self.he.position(b))
+                self.chain_straight(c, x, b, s)
             }
         }
     }
@@ -866,12 +872,21 @@ impl State<'_> {
             let sx = self.param_on(x, c, s);
             let sy = self.param_on(y, c, s);
             let ch = &self.chains[c as usize];
+            // The neighbours' places on the chain (where they are, or will be once slid onto
+            // it: a curve chain starts at the edge path, off the network's polyline).
+            let (px, py) = (ch.point_at(sx), ch.point_at(sy));
+            let ok = |t: f64| {
+                let p = ch.point_at(t);
+                ch.deviation(sx, t, px, p) <= self.tol && ch.deviation(t, sy, p, py) <= self.tol
+            };
             let t = ch.middle(sx, sy);
-            let p = ch.point_at(t);
-            let (px, py) = (self.he.position(x), self.he.position(y));
-            if ch.deviation(sx, t, px, p) <= self.tol && ch.deviation(t, sy, p, py) <= self.tol {
-                self.he.set_position(v, p);
+            if ok(t) {
+                self.he.set_position(v, ch.point_at(t));
                 self.param[v as usize] = t;
+            } else {
+                // Onto the chain at its own parameter: a no-op on a chain of input edges, and
+                // on a curve chain never farther from the network's polyline than before.
+                self.he.set_position(v, ch.point_at(s));
             }
         }
     }
@@ -913,19 +928,20 @@ pub struct IsotropicNode;
 impl NodeKind for IsotropicNode {
     type Params = IsotropicParams;
     const KIND: &'static str = "remesh.isotropic";
-    const VERSION: u32 = 2;
+    const VERSION: u32 = 3;
     const DOC: &'static str = "Isotropic remeshing at a target edge length (Botsch & Kobbelt \
         2004, thesis §5.1.1): splits > 4/3 L, collapses < 4/5 L, valence-improving flips, \
         tangential relaxation and projection onto the input surface, for `iterations` rounds. \
         Feature edges are kept: the optional feature curve network (snapped to mesh edges), \
         sharp edges (dihedral > sharp_angle_deg; free-ended sharp chains shorter than \
         min_feature_length targets are dropped) and boundaries; corners stay fixed, other \
-        feature vertices slide along their feature polyline, feature edges are never flipped \
+        feature vertices slide along their feature polyline (for curves, the network's own \
+        polyline, not the zig-zag edge path they snap to), feature edges are never flipped \
         and collapse only along themselves, and no output feature edge strays more than \
         feature_tolerance · L from the polyline it replaces (bends are kept). Flips and \
         collapses do not create angles below 30° / 20° unless the old ones were smaller. `target` is a fraction of the bbox diagonal \
         (relative: true) or absolute. Outputs the mesh and a Report (vertices_out, \
-        feature_edges_in/out, splits, collapses, flips, target_abs).";
+        feature_edges_in/out, feature_chains_from_curves, splits, collapses, flips, target_abs).";
 
     fn inputs() -> Vec<Port> {
         vec![

@@ -337,6 +337,94 @@ fn feature_curve_is_kept() {
     assert!(len_free < 0.9, "{len_free}");
 }
 
+/// Distance from `p` to the segment [a, b].
+fn dist_to_segment(p: V3, a: V3, b: V3) -> f64 {
+    let d = vec3::sub(b, a);
+    let t = (vec3::dot(vec3::sub(p, a), d) / vec3::dot(d, d)).clamp(0.0, 1.0);
+    vec3::dist(p, vec3::add(a, vec3::scale(d, t)))
+}
+
+#[test]
+fn straight_curve_across_the_edges_stays_straight() {
+    // A flat 20 × 20 grid whose squares are split along (1, 1); a straight curve of slope 1/2
+    // cuts across its edges, so its path over mesh edges zig-zags (up to 0.022 off the line).
+    // The remeshed feature follows the network's straight line, not the path: its edges lie
+    // within the tolerance of the line and are about L long, and the triangles stay round.
+    let mut flat = bumpy_square(20);
+    for p in &mut flat.positions {
+        p[2] = 0.0;
+    }
+    let flat = TriMesh::new(flat.positions, flat.triangles);
+    let id = |i: usize, j: usize| (j * 21 + i) as u32;
+    let (a, b) = ([0.1, 0.25, 0.0], [0.9, 0.65, 0.0]);
+    let k = 9;
+    let vertices: Vec<FcnVertex> = (0..=k)
+        .map(|i| {
+            let position = vec3::lerp(a, b, i as f64 / k as f64);
+            let location = match i {
+                0 => SurfacePoint::Vertex(id(2, 5)),
+                _ if i == k => SurfacePoint::Vertex(id(18, 13)),
+                _ => SurfacePoint::Free,
+            };
+            FcnVertex {
+                position,
+                location,
+                strength: 1.0,
+            }
+        })
+        .collect();
+    let net = FeatureCurveNetwork {
+        vertices,
+        curves: vec![FeatureCurve {
+            vertices: (0..=k as u32).collect(),
+            closed: false,
+            label: CurveLabel::Other,
+        }],
+    };
+    let l = 0.1;
+    let params = IsotropicParams {
+        sharp_edges: false,
+        ..abs(l)
+    };
+    let out = isotropic(&flat, Some(&net), &params, Par::Rayon).unwrap();
+    let m = &out.mesh;
+    assert_manifold(m);
+    let from_curves = out.report.num("feature_edges_from_curves").unwrap();
+    assert!(from_curves >= 16.0, "the edge path has {from_curves} edges");
+    let topo = m.topology();
+    let boundary = topo
+        .edge_faces
+        .iter()
+        .filter(|f| f[1] == crestflow_geom::mesh::NO_FACE)
+        .count();
+    let curve_edges = out.report.num("feature_edges_out").unwrap() as usize - boundary;
+    let tol = params.feature_tolerance * l + 1e-12;
+    let on_line: Vec<f64> = topo
+        .edges
+        .iter()
+        .map(|[u, w]| (m.positions[*u as usize], m.positions[*w as usize]))
+        .filter(|&(pu, pw)| dist_to_segment(pu, a, b) <= tol && dist_to_segment(pw, a, b) <= tol)
+        .map(|(pu, pw)| vec3::dist(pu, pw))
+        .collect();
+    let length = vec3::dist(a, b);
+    let sum: f64 = on_line.iter().sum();
+    assert!(
+        (sum - length).abs() < 1e-6,
+        "edges on the line add up to {sum}, the line is {length} long"
+    );
+    assert_eq!(
+        on_line.len(),
+        curve_edges,
+        "every curve edge lies on the line"
+    );
+    assert!(
+        curve_edges as f64 <= 1.6 * length / l && curve_edges as f64 >= length / (4.0 / 3.0 * l),
+        "{curve_edges} curve edges for a line of {length} at L = {l}"
+    );
+    let lo = min_angle_deg(m);
+    assert!(lo >= 25.0, "smallest angle {lo}°");
+}
+
 #[test]
 fn bad_input_gives_clear_errors() {
     let p = vec![
