@@ -113,46 +113,8 @@ pub fn mul(a: &[f64], r: usize, s: usize, b: &[f64], c: usize) -> Vec<f64> {
     to_vec(&out)
 }
 
-/// `Aᵀ D B` for tall column-major `A` (n × p), `B` (n × q) and an optional diagonal `D`:
-/// partial products over fixed row chunks, summed in chunk order. Returns p × q.
-pub fn at_d_b(
-    a: &[f64],
-    p: usize,
-    d: Option<&[f64]>,
-    b: &[f64],
-    q: usize,
-    n: usize,
-    par: Par,
-) -> Vec<f64> {
-    let chunks = n.div_ceil(ROW_CHUNK).max(1);
-    let parts = par.map_collect(chunks, |c| {
-        let r0 = c * ROW_CHUNK;
-        let len = ROW_CHUNK.min(n - r0.min(n));
-        let am = mref(a, n, p).subrows(r0, len);
-        let db = Mat::<f64>::from_fn(len, q, |i, j| {
-            d.map_or(1.0, |d| d[r0 + i]) * b[j * n + r0 + i]
-        });
-        let mut out = Mat::<f64>::zeros(p, q);
-        matmul(
-            out.as_mut(),
-            Accum::Replace,
-            am.transpose(),
-            db.as_ref(),
-            1.0,
-            faer::Par::Seq,
-        );
-        out
-    });
-    let mut sum = vec![0.0; p * q];
-    for part in parts {
-        for j in 0..q {
-            for i in 0..p {
-                sum[j * p + i] += part[(i, j)];
-            }
-        }
-    }
-    sum
-}
+/// `Aᵀ D B` in fixed row chunks (deterministic at any thread count); shared with the eigensolver.
+pub use crestflow_nodes_spectral::eigenbasis::at_d_b;
 
 /// `A X` for tall column-major `A` (n × p) and small `X` (p × q), in fixed row chunks.
 pub fn tall_mul(a: &[f64], n: usize, p: usize, x: &[f64], q: usize, par: Par) -> Vec<f64> {

@@ -192,8 +192,9 @@ fn mref(v: &[f64], rows: usize, cols: usize) -> MatRef<'_, f64> {
 }
 
 /// `Aᵀ D B` for column-major `A` (n × p), `B` (n × q) and an optional diagonal `D`: partial
-/// products over fixed row chunks, summed in chunk order. Returns p × q column-major.
-fn at_d_b(
+/// products over fixed row chunks, summed in chunk order, so the bits do not depend on the
+/// thread count. Returns p × q column-major (zeros when n = 0).
+pub fn at_d_b(
     a: &[f64],
     p: usize,
     d: Option<&[f64]>,
