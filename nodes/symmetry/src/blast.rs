@@ -220,7 +220,7 @@ pub struct CurveMatches {
 impl CurveMatches {
     /// The mirror M as a function.
     pub fn mirror(&self, p: V3) -> V3 {
-        [2.0 * self.mirror_x - p[0], p[1], p[2]]
+        crate::transform::mirror_in_x(self.mirror_x, p)
     }
 }
 
@@ -537,7 +537,7 @@ fn blast_impl(
         .map(|s| {
             s.pts
                 .iter()
-                .map(|p| [2.0 * mirror_x - p[0], p[1], p[2]])
+                .map(|p| crate::transform::mirror_in_x(mirror_x, *p))
                 .collect()
         })
         .collect();

@@ -144,7 +144,7 @@ pub struct TransformClusters {
 impl TransformClusters {
     /// The mirror M: p ↦ (2 mirror_x − p.x, p.y, p.z).
     pub fn mirror(&self, p: V3) -> V3 {
-        [2.0 * self.mirror_x - p[0], p[1], p[2]]
+        crate::transform::mirror_in_x(self.mirror_x, p)
     }
 }
 

@@ -218,6 +218,13 @@ impl RigidTransform {
     }
 }
 
+/// The mirror M used to look for reflections: p ↦ (2·x0 − p.x, p.y, p.z), the reflection in
+/// the plane x = x0. A reflection symmetry is then a rigid motion between the curves and their
+/// mirror images.
+pub fn mirror_in_x(x0: f64, p: V3) -> V3 {
+    [2.0 * x0 - p[0], p[1], p[2]]
+}
+
 /// Angle in degrees between two rotations given as unit quaternions (q ≡ −q).
 pub fn quat_angle_deg(a: [f64; 4], b: [f64; 4]) -> f64 {
     let d = (a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]).abs();
