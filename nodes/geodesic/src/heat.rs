@@ -27,6 +27,7 @@
 //! [`HeatSolver`] factorises both matrices once; [`HeatSolver::distances`] solves a batch of
 //! sources as one block of right-hand sides. Results are the same bits at any thread count.
 
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crestflow_flow::{
@@ -35,7 +36,7 @@ use crestflow_flow::{
 };
 use crestflow_geom::fcn::{FeatureCurveNetwork, SurfacePoint};
 use crestflow_geom::mesh::TriMesh;
-use crestflow_geom::vec3::{cross, dot, norm, scale, sub, V3};
+use crestflow_geom::vec3::{cross, dot, norm, sub, V3};
 use crestflow_nodes_spectral::sparse::{
     laplacian_and_mass, CsrMatrix, LaplacianOptions, OperatorError, SparseError, SpdSolver,
 };
@@ -292,10 +293,13 @@ pub struct HeatSolver {
     n: usize,
     time: f64,
     triangles: Vec<[u32; 3]>,
-    /// Per face: gradients of the three hat functions.
-    grads: Vec<[V3; 3]>,
-    /// Per face area.
-    areas: Vec<f64>,
+    /// Per face: the cotangent weights `½ cot θ_k` of the edges opposite its corners `k`
+    /// (its stiffness matrix `A ∇ψ_i · ∇ψ_j`) and `1 / A` (zeros for a degenerate face).
+    stiffness: Vec<[f64; 4]>,
+    /// Corners (`3 · face + i`) around each vertex in face order: `corners[corner_ptr[v]..
+    /// corner_ptr[v + 1]]`.
+    corner_ptr: Vec<usize>,
+    corners: Vec<u32>,
     /// Connected component of each vertex (`u32::MAX` for unreferenced vertices).
     component: Vec<u32>,
     /// The pinned vertex of each component.
@@ -351,33 +355,46 @@ impl HeatSolver {
         let mut poisson = heat.clone();
         poisson.refactor(&lp)?;
 
-        let mut grads = Vec::with_capacity(mesh.n_faces());
-        let mut areas = Vec::with_capacity(mesh.n_faces());
-        for f in 0..mesh.n_faces() {
-            let p = mesh.face_points(f);
-            let nrm = cross(sub(p[1], p[0]), sub(p[2], p[0]));
-            let a2 = norm(nrm);
-            if a2 > 0.0 && a2.is_finite() {
-                let unit = scale(nrm, 1.0 / a2);
-                // ∇ψ_i = N × e_i / (2A), e_i the edge opposite corner i, counter-clockwise.
-                let g = |i: usize| {
-                    let e = sub(p[(i + 2) % 3], p[(i + 1) % 3]);
-                    scale(cross(unit, e), 1.0 / a2)
+        let stiffness: Vec<[f64; 4]> = (0..mesh.n_faces())
+            .map(|f| {
+                let p = mesh.face_points(f);
+                let a2 = norm(cross(sub(p[1], p[0]), sub(p[2], p[0])));
+                if !(a2 > 0.0 && a2.is_finite()) {
+                    // A degenerate face carries no gradient.
+                    return [0.0; 4];
+                }
+                // ½ cot θ_k = ½ (e1 · e2) / |e1 × e2| at corner k.
+                let half_cot = |k: usize| {
+                    let (e1, e2) = (sub(p[(k + 1) % 3], p[k]), sub(p[(k + 2) % 3], p[k]));
+                    0.5 * dot(e1, e2) / a2
                 };
-                grads.push([g(0), g(1), g(2)]);
-                areas.push(0.5 * a2);
-            } else {
-                // A degenerate face carries no gradient.
-                grads.push([[0.0; 3]; 3]);
-                areas.push(0.0);
+                [half_cot(0), half_cot(1), half_cot(2), 2.0 / a2]
+            })
+            .collect();
+        let mut corner_ptr = vec![0usize; n + 1];
+        for t in &mesh.triangles {
+            for &v in t {
+                corner_ptr[v as usize + 1] += 1;
+            }
+        }
+        for v in 0..n {
+            corner_ptr[v + 1] += corner_ptr[v];
+        }
+        let mut fill = corner_ptr.clone();
+        let mut corners = vec![0u32; 3 * mesh.n_faces()];
+        for (f, t) in mesh.triangles.iter().enumerate() {
+            for (i, &v) in t.iter().enumerate() {
+                corners[fill[v as usize]] = (3 * f + i) as u32;
+                fill[v as usize] += 1;
             }
         }
         Ok(HeatSolver {
             n,
             time,
             triangles: mesh.triangles.clone(),
-            grads,
-            areas,
+            stiffness,
+            corner_ptr,
+            corners,
             component,
             pins,
             heat,
@@ -490,8 +507,9 @@ impl HeatSolver {
         // 2.-3. normalised gradient and its divergence: faces in parallel, each vertex's
         // sum in face order (the same bits at any thread count).
         let mut phi = vec![0.0; n * m];
+        let mut terms = vec![[0.0; 3]; self.triangles.len()];
         for (s, col) in phi.chunks_mut(n).enumerate() {
-            self.divergence(&u[s * n..(s + 1) * n], col, par);
+            self.divergence(&u[s * n..(s + 1) * n], col, &mut terms, par);
         }
         self.poisson.solve_many(&mut phi, m, par)?;
         // 4. shift per component
@@ -506,41 +524,62 @@ impl HeatSolver {
     }
 
     /// `b = ∫ X · ∇ψ_i` for `X = −∇u/|∇u|`, with pinned rows zeroed. The per-face terms are
-    /// computed in parallel (fixed pieces of faces) and added to `b` in face order.
-    fn divergence(&self, u: &[f64], b: &mut [f64], par: Par) {
-        const FACE_CHUNK: usize = 8192;
-        let nf = self.triangles.len();
-        let face_terms = |f: usize| -> [f64; 3] {
+    /// computed in parallel into `terms`; each vertex then sums its corners' terms in face order
+    /// (the order of a sequential scatter, so the bits do not depend on the thread count).
+    fn divergence(&self, u: &[f64], b: &mut [f64], terms: &mut [[f64; 3]], par: Par) {
+        const CHUNK: usize = 4096;
+        // b_i = −(K u)_i / |∇u| with K the face's cotangent stiffness matrix and
+        // |∇u|² = uᵀ K u / A.
+        let face_terms = |f: usize, out: &mut [f64; 3]| {
             let t = self.triangles[f];
-            let g = &self.grads[f];
-            let mut grad = [0.0; 3];
-            for i in 0..3 {
-                let ui = u[t[i] as usize];
-                for k in 0..3 {
-                    grad[k] += ui * g[i][k];
-                }
-            }
-            let len = norm(grad);
-            if !(len > 0.0 && len.is_finite()) {
-                return [0.0; 3];
-            }
-            let x = scale(grad, -1.0 / len);
-            let a = self.areas[f];
-            [a * dot(x, g[0]), a * dot(x, g[1]), a * dot(x, g[2])]
+            let [c0, c1, c2, inv_area] = self.stiffness[f];
+            let (u0, u1, u2) = (u[t[0] as usize], u[t[1] as usize], u[t[2] as usize]);
+            let (d01, d12, d20) = (u0 - u1, u1 - u2, u2 - u0);
+            let energy = c0 * d12 * d12 + c1 * d20 * d20 + c2 * d01 * d01;
+            let grad_sq = energy * inv_area;
+            *out = if grad_sq > 0.0 && grad_sq.is_finite() {
+                let s = -1.0 / grad_sq.sqrt();
+                [
+                    s * (c2 * d01 - c1 * d20),
+                    s * (c0 * d12 - c2 * d01),
+                    s * (c1 * d20 - c0 * d12),
+                ]
+            } else {
+                [0.0; 3]
+            };
         };
-        let parts: Vec<Vec<[f64; 3]>> = par.map_collect(nf.div_ceil(FACE_CHUNK), |c| {
-            (c * FACE_CHUNK..((c + 1) * FACE_CHUNK).min(nf))
-                .map(face_terms)
-                .collect()
-        });
-        b.iter_mut().for_each(|x| *x = 0.0);
-        for (c, part) in parts.iter().enumerate() {
-            for (j, terms) in part.iter().enumerate() {
-                let t = self.triangles[c * FACE_CHUNK + j];
-                for i in 0..3 {
-                    b[t[i] as usize] += terms[i];
-                }
+        match par {
+            Par::Seq => terms
+                .iter_mut()
+                .enumerate()
+                .for_each(|(f, out)| face_terms(f, out)),
+            Par::Rayon => terms
+                .par_chunks_mut(CHUNK)
+                .enumerate()
+                .for_each(|(c, chunk)| {
+                    for (j, out) in chunk.iter_mut().enumerate() {
+                        face_terms(c * CHUNK + j, out);
+                    }
+                }),
+        }
+        let terms: &[[f64; 3]] = terms;
+        let vertex_sum = |v: usize| -> f64 {
+            let mut sum = 0.0;
+            for &c in &self.corners[self.corner_ptr[v]..self.corner_ptr[v + 1]] {
+                sum += terms[(c / 3) as usize][(c % 3) as usize];
             }
+            sum
+        };
+        match par {
+            Par::Seq => b
+                .iter_mut()
+                .enumerate()
+                .for_each(|(v, x)| *x = vertex_sum(v)),
+            Par::Rayon => b.par_chunks_mut(CHUNK).enumerate().for_each(|(c, chunk)| {
+                for (j, x) in chunk.iter_mut().enumerate() {
+                    *x = vertex_sum(c * CHUNK + j);
+                }
+            }),
         }
         for &p in &self.pins {
             b[p as usize] = 0.0;

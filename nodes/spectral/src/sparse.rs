@@ -788,6 +788,8 @@ pub fn lumped_mass(mesh: &TriMesh) -> Result<Vec<f64>, OperatorError> {
 pub struct SpdSolver {
     n: usize,
     symbolic: Arc<SymbolicCholesky<usize>>,
+    /// How the triangular solves split the elimination tree (from the symbolic analysis).
+    schedule: Arc<SolveSchedule>,
     factor: Vec<f64>,
     row_ptr: Vec<usize>,
     col_idx: Vec<usize>,
@@ -815,9 +817,11 @@ impl SpdSolver {
             },
         )
         .map_err(|e| SparseError::Factorization(format!("{e:?}")))?;
+        let schedule = Arc::new(SolveSchedule::new(&symbolic));
         let mut s = SpdSolver {
             n: a.nrows,
             symbolic: Arc::new(symbolic),
+            schedule,
             factor: Vec::new(),
             row_ptr: a.row_ptr.clone(),
             col_idx: a.col_idx.clone(),
@@ -880,23 +884,24 @@ impl SpdSolver {
         self.factor.len()
     }
 
-    /// Solves `A x = b` for a column-major `n × m` block on the calling thread, `m` at most
-    /// [`SOLVE_CHUNK`].
-    fn solve_block(&self, b: &mut [f64], m: usize) {
+    /// Solves `A x = b` for a column-major `n × m` block, `m` at most [`SOLVE_CHUNK`];
+    /// independent subtrees of the elimination tree run in parallel under `Par::Rayon`.
+    fn solve_block(&self, b: &mut [f64], m: usize, par: Par) {
         match m {
-            1 => self.solve_block_w::<1>(b, 1),
-            2 => self.solve_block_w::<2>(b, 2),
-            3 | 4 => self.solve_block_w::<4>(b, m),
-            _ => self.solve_block_w::<SOLVE_CHUNK>(b, m),
+            1 => self.solve_block_w::<1>(b, 1, par),
+            2 => self.solve_block_w::<2>(b, 2, par),
+            3 | 4 => self.solve_block_w::<4>(b, m, par),
+            _ => self.solve_block_w::<SOLVE_CHUNK>(b, m, par),
         }
     }
 
     /// The triangular solves with the supernodal factor for up to `W` right-hand sides,
     /// interleaved row by row (`x[i·W + j]`) so that the inner loops run over the
     /// right-hand sides. Every column sees the same operations in the same order whatever
-    /// `W` and the other columns are: the bits of a column do not depend on how columns are
-    /// grouped.
-    fn solve_block_w<const W: usize>(&self, b: &mut [f64], m: usize) {
+    /// `W`, the other columns and the thread count are: the subtrees of the
+    /// [`SolveSchedule`] are fixed by the matrix, and their contributions to the rows above
+    /// them are added in subtree order.
+    fn solve_block_w<const W: usize>(&self, b: &mut [f64], m: usize, par: Par) {
         let n = self.n;
         let SymbolicCholeskyRaw::Supernodal(sym) = self.symbolic.raw() else {
             // faer chose the simplicial layout (it does so only for degenerate sizes): its own
@@ -925,72 +930,119 @@ impl SpdSolver {
                 None => x.iter_mut().zip(col).for_each(|(xi, &c)| xi[j] = c),
             }
         }
-        let begin = sym.supernode_begin();
-        let end = sym.supernode_end();
-        let rptr = sym.col_ptr_for_row_idx();
-        let vptr = sym.col_ptr_for_val();
-        let rows = sym.row_idx();
-        let ns = sym.n_supernodes();
-        let max_pat = (0..ns).map(|s| rptr[s + 1] - rptr[s]).max().unwrap_or(0);
-        let mut tmp = vec![[0.0f64; W]; max_pat];
-        // Forward: L y = b.
-        for s in 0..ns {
-            let (c0, c1) = (begin[s], end[s]);
-            let nc = c1 - c0;
-            let pat = &rows[rptr[s]..rptr[s + 1]];
-            let np = pat.len();
-            let ld = nc + np;
-            let vals = &self.factor[vptr[s]..vptr[s + 1]];
-            let tmp = &mut tmp[..np];
-            tmp.iter_mut().for_each(|t| *t = [0.0; W]);
-            for jj in 0..nc {
-                let col = &vals[jj * ld..(jj + 1) * ld];
-                let d = col[jj];
-                let mut xj = x[c0 + jj];
-                for v in xj.iter_mut() {
-                    *v /= d;
-                }
-                x[c0 + jj] = xj;
-                for (xi, &l) in x[c0 + jj + 1..c1].iter_mut().zip(&col[jj + 1..nc]) {
-                    for w in 0..W {
-                        xi[w] -= l * xj[w];
+        let f = FactorView {
+            begin: sym.supernode_begin(),
+            end: sym.supernode_end(),
+            rptr: sym.col_ptr_for_row_idx(),
+            vptr: sym.col_ptr_for_val(),
+            rows: sym.row_idx(),
+            values: &self.factor,
+        };
+        let sched = &*self.schedule;
+        let max_pat = sched.max_pattern;
+        let seq = matches!(par, Par::Seq) || sched.subtrees.len() < 2;
+
+        // Forward, L y = b: the subtrees (their rows above them go to private sums), then
+        // the sums in subtree order, then the separator supernodes on top.
+        {
+            let mut parts = sched.split_mut(&mut x);
+            let mut sums: Vec<Vec<[f64; W]>> = sched
+                .subtrees
+                .iter()
+                .map(|t| vec![[0.0; W]; t.above.len()])
+                .collect();
+            let run = |t: &Subtree, xs: &mut [[f64; W]], sum: &mut [[f64; W]]| {
+                let mut tmp = vec![[0.0f64; W]; max_pat];
+                for s in t.first..=t.last {
+                    let pat = f.pattern(s);
+                    let tmp = &mut tmp[..pat.len()];
+                    f.forward_supernode(s, &mut xs[f.begin[s] - t.col0..], tmp);
+                    let inside = sched.inside[s] as usize;
+                    for (tv, &r) in tmp[..inside].iter().zip(pat) {
+                        let xi = &mut xs[r - t.col0];
+                        for w in 0..W {
+                            xi[w] -= tv[w];
+                        }
+                    }
+                    if inside < pat.len() {
+                        let dest = &sched.above_slot[f.rptr[s] + inside..f.rptr[s + 1]];
+                        for (tv, &k) in tmp[inside..].iter().zip(dest) {
+                            let acc = &mut sum[k as usize];
+                            for w in 0..W {
+                                acc[w] += tv[w];
+                            }
+                        }
                     }
                 }
-                for (t, &l) in tmp.iter_mut().zip(&col[nc..]) {
+            };
+            let jobs = sched
+                .subtrees
+                .iter()
+                .zip(parts.iter_mut().zip(sums.iter_mut()));
+            if seq {
+                jobs.for_each(|(t, (xs, sum))| run(t, xs, sum));
+            } else {
+                jobs.collect::<Vec<_>>()
+                    .into_par_iter()
+                    .for_each(|(t, (xs, sum))| run(t, xs, sum));
+            }
+            drop(parts);
+            for (t, sum) in sched.subtrees.iter().zip(&sums) {
+                for (&r, acc) in t.above.iter().zip(sum) {
+                    let xi = &mut x[r];
                     for w in 0..W {
-                        t[w] += l * xj[w];
+                        xi[w] -= acc[w];
                     }
                 }
             }
-            for (t, &r) in tmp.iter().zip(pat) {
-                let xi = &mut x[r];
-                for w in 0..W {
-                    xi[w] -= t[w];
+            let mut tmp = vec![[0.0f64; W]; max_pat];
+            for &s in &sched.top {
+                let pat = f.pattern(s);
+                let tmp = &mut tmp[..pat.len()];
+                f.forward_supernode(s, &mut x[f.begin[s]..], tmp);
+                for (tv, &r) in tmp.iter().zip(pat) {
+                    let xi = &mut x[r];
+                    for w in 0..W {
+                        xi[w] -= tv[w];
+                    }
                 }
             }
         }
-        // Backward: Lᵀ x = y.
-        for s in (0..ns).rev() {
-            let (c0, c1) = (begin[s], end[s]);
-            let nc = c1 - c0;
-            let pat = &rows[rptr[s]..rptr[s + 1]];
-            let np = pat.len();
-            let ld = nc + np;
-            let vals = &self.factor[vptr[s]..vptr[s + 1]];
-            let tmp = &mut tmp[..np];
-            for (t, &r) in tmp.iter_mut().zip(pat) {
-                *t = x[r];
-            }
-            for jj in (0..nc).rev() {
-                let col = &vals[jj * ld..(jj + 1) * ld];
-                let mut acc = dot_w::<W>(&col[nc..], tmp);
-                let top = dot_w::<W>(&col[jj + 1..nc], &x[c0 + jj + 1..c1]);
-                let d = col[jj];
-                let xj = &mut x[c0 + jj];
-                for w in 0..W {
-                    acc[w] += top[w];
-                    xj[w] = (xj[w] - acc[w]) / d;
+        // Backward, Lᵀ x = y: the separators, then the subtrees (reading the separator
+        // values from a copy).
+        {
+            let mut tmp = vec![[0.0f64; W]; max_pat];
+            for &s in sched.top.iter().rev() {
+                let pat = f.pattern(s);
+                let tmp = &mut tmp[..pat.len()];
+                for (tv, &r) in tmp.iter_mut().zip(pat) {
+                    *tv = x[r];
                 }
+                f.backward_supernode(s, &mut x[f.begin[s]..], tmp);
+            }
+            let top_x: Vec<[f64; W]> = sched.top_cols.iter().map(|&c| x[c]).collect();
+            let mut parts = sched.split_mut(&mut x);
+            let run = |(t, xs): (&Subtree, &mut &mut [[f64; W]])| {
+                let mut tmp = vec![[0.0f64; W]; max_pat];
+                for s in (t.first..=t.last).rev() {
+                    let pat = f.pattern(s);
+                    let tmp = &mut tmp[..pat.len()];
+                    let inside = sched.inside[s] as usize;
+                    let (tin, tout) = tmp.split_at_mut(inside);
+                    for (tv, &r) in tin.iter_mut().zip(pat) {
+                        *tv = xs[r - t.col0];
+                    }
+                    for (tv, &r) in tout.iter_mut().zip(&pat[inside..]) {
+                        *tv = top_x[sched.top_index[r] as usize];
+                    }
+                    f.backward_supernode(s, &mut xs[f.begin[s] - t.col0..], tmp);
+                }
+            };
+            let jobs = sched.subtrees.iter().zip(parts.iter_mut());
+            if seq {
+                jobs.for_each(run);
+            } else {
+                jobs.collect::<Vec<_>>().into_par_iter().for_each(run);
             }
         }
         for j in 0..m {
@@ -1012,7 +1064,7 @@ impl SpdSolver {
             });
         }
         if self.n > 0 {
-            self.solve_block(b, 1);
+            self.solve_block(b, 1, Par::Seq);
         }
         Ok(())
     }
@@ -1044,12 +1096,283 @@ impl SpdSolver {
         match par {
             Par::Seq => b
                 .chunks_mut(chunk)
-                .for_each(|c| self.solve_block(c, c.len() / self.n)),
+                .for_each(|c| self.solve_block(c, c.len() / self.n, Par::Seq)),
+            // One group: the subtrees of the elimination tree share the threads instead.
+            Par::Rayon if m <= width => self.solve_block(b, m, Par::Rayon),
             Par::Rayon => b
                 .par_chunks_mut(chunk)
-                .for_each(|c| self.solve_block(c, c.len() / self.n)),
+                .for_each(|c| self.solve_block(c, c.len() / self.n, Par::Seq)),
         }
         Ok(())
+    }
+}
+
+/// The supernodal factor's arrays, borrowed for one solve.
+struct FactorView<'a> {
+    begin: &'a [usize],
+    end: &'a [usize],
+    rptr: &'a [usize],
+    vptr: &'a [usize],
+    rows: &'a [usize],
+    values: &'a [f64],
+}
+
+impl FactorView<'_> {
+    /// Rows of supernode `s` below its own columns, ascending.
+    fn pattern(&self, s: usize) -> &[usize] {
+        &self.rows[self.rptr[s]..self.rptr[s + 1]]
+    }
+
+    /// Forward step of supernode `s`: solves its diagonal block in place (`x` starts at its
+    /// first column) and leaves in `tmp` what its pattern rows must subtract.
+    #[inline(always)]
+    fn forward_supernode<const W: usize>(
+        &self,
+        s: usize,
+        x: &mut [[f64; W]],
+        tmp: &mut [[f64; W]],
+    ) {
+        let nc = self.end[s] - self.begin[s];
+        let ld = nc + tmp.len();
+        let vals = &self.values[self.vptr[s]..self.vptr[s + 1]];
+        tmp.iter_mut().for_each(|t| *t = [0.0; W]);
+        for jj in 0..nc {
+            let col = &vals[jj * ld..(jj + 1) * ld];
+            let d = col[jj];
+            let mut xj = x[jj];
+            for v in xj.iter_mut() {
+                *v /= d;
+            }
+            x[jj] = xj;
+            for (xi, &l) in x[jj + 1..nc].iter_mut().zip(&col[jj + 1..nc]) {
+                for w in 0..W {
+                    xi[w] -= l * xj[w];
+                }
+            }
+            for (t, &l) in tmp.iter_mut().zip(&col[nc..]) {
+                for w in 0..W {
+                    t[w] += l * xj[w];
+                }
+            }
+        }
+    }
+
+    /// Backward step of supernode `s` (`x` starts at its first column; `tmp` holds the
+    /// solution at its pattern rows).
+    #[inline(always)]
+    fn backward_supernode<const W: usize>(&self, s: usize, x: &mut [[f64; W]], tmp: &[[f64; W]]) {
+        let nc = self.end[s] - self.begin[s];
+        let ld = nc + tmp.len();
+        let vals = &self.values[self.vptr[s]..self.vptr[s + 1]];
+        for jj in (0..nc).rev() {
+            let col = &vals[jj * ld..(jj + 1) * ld];
+            let mut acc = dot_w::<W>(&col[nc..], tmp);
+            let top = dot_w::<W>(&col[jj + 1..nc], &x[jj + 1..nc]);
+            let d = col[jj];
+            let xj = &mut x[jj];
+            for w in 0..W {
+                acc[w] += top[w];
+                xj[w] = (xj[w] - acc[w]) / d;
+            }
+        }
+    }
+}
+
+/// Factor values below which the triangular solves stay in one piece (splitting costs more
+/// than it saves on small factors).
+const SPLIT_MIN_VALUES: usize = 200_000;
+
+/// Subtrees are split until none holds more than this fraction of the factor's values.
+const SPLIT_PIECES: usize = 16;
+
+/// One subtree of the supernodal elimination tree, solved as an independent task.
+#[derive(Debug, Clone)]
+struct Subtree {
+    /// Its supernodes `first..=last` (contiguous: the tree is in postorder).
+    first: usize,
+    last: usize,
+    /// Its columns `col0..col1`.
+    col0: usize,
+    col1: usize,
+    /// The rows above it (separator columns) that its supernodes update, ascending.
+    above: Vec<usize>,
+}
+
+/// How the triangular solves split the supernodal elimination tree: disjoint subtrees that
+/// are solved independently, and the separator supernodes above them ("top"), solved
+/// after (forward) or before (backward) them. The split depends on the factor's structure
+/// only, never on the thread count, so the bits of a solve do not either.
+#[derive(Debug, Clone, Default)]
+struct SolveSchedule {
+    subtrees: Vec<Subtree>,
+    /// Supernodes outside every subtree, ascending.
+    top: Vec<usize>,
+    /// Columns of the top supernodes, ascending, and each column's index among them
+    /// (`u32::MAX` for subtree columns).
+    top_cols: Vec<usize>,
+    top_index: Vec<u32>,
+    /// For each pattern entry (parallel to the factor's row indices) of a subtree supernode
+    /// that lies above its subtree: the entry's position in the subtree's `above` list.
+    above_slot: Vec<u32>,
+    /// Per supernode: how many of its pattern rows lie inside its subtree (all of them for
+    /// the top supernodes).
+    inside: Vec<u32>,
+    /// Largest pattern length of a supernode.
+    max_pattern: usize,
+}
+
+impl SolveSchedule {
+    fn new(symbolic: &SymbolicCholesky<usize>) -> SolveSchedule {
+        let SymbolicCholeskyRaw::Supernodal(sym) = symbolic.raw() else {
+            return SolveSchedule::default();
+        };
+        let (begin, end) = (sym.supernode_begin(), sym.supernode_end());
+        let (rptr, vptr, rows) = (
+            sym.col_ptr_for_row_idx(),
+            sym.col_ptr_for_val(),
+            sym.row_idx(),
+        );
+        let ns = sym.n_supernodes();
+        let n = symbolic.nrows();
+        let max_pattern = (0..ns).map(|s| rptr[s + 1] - rptr[s]).max().unwrap_or(0);
+        let everything = |max_pattern| SolveSchedule {
+            subtrees: vec![Subtree {
+                first: 0,
+                last: ns.saturating_sub(1),
+                col0: 0,
+                col1: n,
+                above: Vec::new(),
+            }],
+            top: Vec::new(),
+            top_cols: Vec::new(),
+            top_index: vec![u32::MAX; n],
+            above_slot: Vec::new(),
+            inside: (0..ns).map(|s| (rptr[s + 1] - rptr[s]) as u32).collect(),
+            max_pattern,
+        };
+        if ns == 0 {
+            return SolveSchedule {
+                subtrees: Vec::new(),
+                ..everything(0)
+            };
+        }
+        let total: usize = vptr[ns] - vptr[0];
+        if total < SPLIT_MIN_VALUES {
+            return everything(max_pattern);
+        }
+        // The supernodal tree: the parent is the supernode of the first pattern row.
+        let mut col_sn = vec![0usize; n];
+        for s in 0..ns {
+            col_sn[begin[s]..end[s]].iter_mut().for_each(|c| *c = s);
+        }
+        const NONE: usize = usize::MAX;
+        let parent: Vec<usize> = (0..ns)
+            .map(|s| {
+                rows.get(rptr[s])
+                    .filter(|_| rptr[s + 1] > rptr[s])
+                    .map_or(NONE, |&r| col_sn[r])
+            })
+            .collect();
+        // Subtree sizes and values; a postorder has each subtree at `s + 1 − size .. = s`.
+        let mut size = vec![1usize; ns];
+        let mut work: Vec<usize> = (0..ns).map(|s| vptr[s + 1] - vptr[s]).collect();
+        let mut first = (0..ns).collect::<Vec<_>>();
+        let mut children: Vec<Vec<usize>> = vec![Vec::new(); ns];
+        for s in 0..ns {
+            let p = parent[s];
+            if p == NONE {
+                continue;
+            }
+            if p <= s {
+                return everything(max_pattern);
+            }
+            size[p] += size[s];
+            work[p] += work[s];
+            first[p] = first[p].min(first[s]);
+            children[p].push(s);
+        }
+        if (0..ns).any(|s| first[s] + size[s] != s + 1) {
+            return everything(max_pattern);
+        }
+        // Split the heaviest subtree into its children until every piece is light enough.
+        let limit = total / SPLIT_PIECES;
+        let mut heap: std::collections::BinaryHeap<(usize, usize)> = (0..ns)
+            .filter(|&s| parent[s] == NONE)
+            .map(|s| (work[s], s))
+            .collect();
+        let mut is_top = vec![false; ns];
+        while let Some(&(w, s)) = heap.peek() {
+            if w <= limit || children[s].is_empty() {
+                break;
+            }
+            heap.pop();
+            is_top[s] = true;
+            heap.extend(children[s].iter().map(|&c| (work[c], c)));
+        }
+        let mut roots: Vec<usize> = heap.into_iter().map(|(_, s)| s).collect();
+        roots.sort_unstable();
+        let top: Vec<usize> = (0..ns).filter(|&s| is_top[s]).collect();
+        let mut top_cols = Vec::new();
+        let mut top_index = vec![u32::MAX; n];
+        for &s in &top {
+            top_cols.extend(begin[s]..end[s]);
+        }
+        for (k, &c) in top_cols.iter().enumerate() {
+            top_index[c] = k as u32;
+        }
+        let mut above_slot = vec![u32::MAX; rows.len()];
+        let mut inside: Vec<u32> = (0..ns).map(|s| (rptr[s + 1] - rptr[s]) as u32).collect();
+        let subtrees: Vec<Subtree> = roots
+            .iter()
+            .map(|&r| {
+                let (f, l) = (first[r], r);
+                let (col0, col1) = (begin[f], end[l]);
+                let mut above: Vec<usize> = (f..=l)
+                    .flat_map(|s| rows[rptr[s]..rptr[s + 1]].iter().copied())
+                    .filter(|&row| row >= col1)
+                    .collect();
+                above.sort_unstable();
+                above.dedup();
+                for s in f..=l {
+                    let pat = &rows[rptr[s]..rptr[s + 1]];
+                    inside[s] = pat.partition_point(|&r| r < col1) as u32;
+                    for e in rptr[s] + inside[s] as usize..rptr[s + 1] {
+                        above_slot[e] = above.partition_point(|&a| a < rows[e]) as u32;
+                    }
+                }
+                Subtree {
+                    first: f,
+                    last: l,
+                    col0,
+                    col1,
+                    above,
+                }
+            })
+            .collect();
+        SolveSchedule {
+            subtrees,
+            top,
+            top_cols,
+            top_index,
+            above_slot,
+            inside,
+            max_pattern,
+        }
+    }
+
+    /// Disjoint mutable views of `x` on the subtrees' column ranges (ascending).
+    fn split_mut<'x, T>(&self, x: &'x mut [T]) -> Vec<&'x mut [T]> {
+        let mut out = Vec::with_capacity(self.subtrees.len());
+        let mut rest = x;
+        let mut offset = 0;
+        for t in &self.subtrees {
+            let (_, tail) = std::mem::take(&mut rest).split_at_mut(t.col0 - offset);
+            let (mine, tail) = tail.split_at_mut(t.col1 - t.col0);
+            out.push(mine);
+            rest = tail;
+            offset = t.col1;
+        }
+        out
     }
 }
 

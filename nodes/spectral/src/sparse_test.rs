@@ -209,3 +209,77 @@ fn bad_meshes_are_rejected_with_the_element() {
         Err(OperatorError::RepeatedVertex { face: 0, vertex: 1 })
     );
 }
+
+/// Two unit spheres side by side (a forest: the elimination tree has two roots).
+fn two_spheres(level: u32) -> TriMesh {
+    let a = sphere(1.0, level).unwrap();
+    let n = a.positions.len() as u32;
+    let mut positions = a.positions.clone();
+    positions.extend(a.positions.iter().map(|p| [p[0] + 3.0, p[1], p[2]]));
+    let mut triangles = a.triangles.clone();
+    triangles.extend(a.triangles.iter().map(|t| [t[0] + n, t[1] + n, t[2] + n]));
+    TriMesh::new(positions, triangles)
+}
+
+#[test]
+fn split_triangular_solves_are_exact_and_thread_independent() {
+    for mesh in [sphere(1.0, 5).unwrap(), two_spheres(5)] {
+        let (l, m) = laplacian_and_mass(&mesh, &LaplacianOptions::default(), Par::Seq).unwrap();
+        let n = m.len();
+        let a = l.add_diagonal(&m).unwrap();
+        let solver = SpdSolver::new(&a).unwrap();
+        let sched = &solver.schedule;
+        // Large enough to be split: several subtrees below a non-empty separator part, the
+        // subtrees and the separators covering every supernode once.
+        assert!(
+            solver.factor_nnz() >= SPLIT_MIN_VALUES,
+            "{}",
+            solver.factor_nnz()
+        );
+        assert!(
+            sched.subtrees.len() >= 4,
+            "{} subtrees",
+            sched.subtrees.len()
+        );
+        assert!(!sched.top.is_empty());
+        let covered: usize = sched
+            .subtrees
+            .iter()
+            .map(|t| t.last + 1 - t.first)
+            .sum::<usize>()
+            + sched.top.len();
+        let SymbolicCholeskyRaw::Supernodal(sym) = solver.symbolic.raw() else {
+            panic!("supernodal factor expected");
+        };
+        assert_eq!(covered, sym.n_supernodes());
+        let b: Vec<f64> = (0..n)
+            .map(|i| ((i * 7919) % 101) as f64 / 101.0 - 0.5)
+            .collect();
+        let mut seq = b.clone();
+        solver.solve_in_place(&mut seq).unwrap();
+        let mut par = b.clone();
+        solver.solve_many(&mut par, 1, Par::Rayon).unwrap();
+        assert_eq!(
+            seq, par,
+            "one right-hand side: same bits with and without threads"
+        );
+        let mut ax = vec![0.0; n];
+        a.mul_vec(&seq, &mut ax, Par::Seq).unwrap();
+        let res = ax
+            .iter()
+            .zip(&b)
+            .map(|(p, q)| (p - q).abs())
+            .fold(0.0, f64::max);
+        assert!(res < 1e-10, "residual {res}");
+        // Inside a block of three the column has the same bits again.
+        let mut block: Vec<f64> = b.iter().chain(&b).chain(&b).map(|v| v * 2.0).collect();
+        solver.solve_many(&mut block, 3, Par::Rayon).unwrap();
+        let doubled: Vec<f64> = seq.iter().map(|v| v * 2.0).collect();
+        let mut twice = b.iter().map(|v| v * 2.0).collect::<Vec<_>>();
+        solver.solve_in_place(&mut twice).unwrap();
+        assert_eq!(&block[n..2 * n], &twice[..]);
+        for (p, q) in twice.iter().zip(&doubled) {
+            assert!((p - q).abs() <= 1e-12 * q.abs().max(1.0));
+        }
+    }
+}
