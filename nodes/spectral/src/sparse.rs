@@ -941,6 +941,11 @@ impl SpdSolver {
         let sched = &*self.schedule;
         let max_pat = sched.max_pattern;
         let seq = matches!(par, Par::Seq) || sched.subtrees.len() < 2;
+        // A sparse right-hand side (a heat source) only reaches the ancestors of its nonzero
+        // rows in the forward solve; the other supernodes would compute on zeros and leave
+        // every bit as it is, so they are skipped.
+        let active = sched.reached(&f, &x);
+        let is_active = |s: usize| active.as_ref().is_none_or(|a| a[s]);
 
         // Forward, L y = b: the subtrees (their rows above them go to private sums), then
         // the sums in subtree order, then the separator supernodes on top.
@@ -953,7 +958,7 @@ impl SpdSolver {
                 .collect();
             let run = |t: &Subtree, xs: &mut [[f64; W]], sum: &mut [[f64; W]]| {
                 let mut tmp = vec![[0.0f64; W]; max_pat];
-                for s in t.first..=t.last {
+                for s in (t.first..=t.last).filter(|&s| is_active(s)) {
                     let pat = f.pattern(s);
                     let tmp = &mut tmp[..pat.len()];
                     f.forward_supernode(s, &mut xs[f.begin[s] - t.col0..], tmp);
@@ -996,7 +1001,7 @@ impl SpdSolver {
                 }
             }
             let mut tmp = vec![[0.0f64; W]; max_pat];
-            for &s in &sched.top {
+            for &s in sched.top.iter().filter(|&&s| is_active(s)) {
                 let pat = f.pattern(s);
                 let tmp = &mut tmp[..pat.len()];
                 f.forward_supernode(s, &mut x[f.begin[s]..], tmp);
@@ -1185,6 +1190,9 @@ const SPLIT_MIN_VALUES: usize = 200_000;
 /// Subtrees are split until none holds more than this fraction of the factor's values.
 const SPLIT_PIECES: usize = 16;
 
+/// Parent of a root supernode.
+const NO_PARENT: usize = usize::MAX;
+
 /// One subtree of the supernodal elimination tree, solved as an independent task.
 #[derive(Debug, Clone)]
 struct Subtree {
@@ -1217,6 +1225,9 @@ struct SolveSchedule {
     /// Per supernode: how many of its pattern rows lie inside its subtree (all of them for
     /// the top supernodes).
     inside: Vec<u32>,
+    /// Parent of each supernode in the elimination tree ([`NO_PARENT`] for a root); empty
+    /// when the supernodes are not in postorder (then no forward step is skipped).
+    parent: Vec<usize>,
     /// Largest pattern length of a supernode.
     max_pattern: usize,
 }
@@ -1235,6 +1246,19 @@ impl SolveSchedule {
         let ns = sym.n_supernodes();
         let n = symbolic.nrows();
         let max_pattern = (0..ns).map(|s| rptr[s + 1] - rptr[s]).max().unwrap_or(0);
+        // The supernodal tree: the parent is the supernode of the first pattern row.
+        let mut col_sn = vec![0usize; n];
+        for s in 0..ns {
+            col_sn[begin[s]..end[s]].iter_mut().for_each(|c| *c = s);
+        }
+        let parent: Vec<usize> = (0..ns)
+            .map(|s| {
+                rows.get(rptr[s])
+                    .filter(|_| rptr[s + 1] > rptr[s])
+                    .map_or(NO_PARENT, |&r| col_sn[r])
+            })
+            .collect();
+        let postordered = (0..ns).all(|s| parent[s] == NO_PARENT || parent[s] > s);
         let everything = |max_pattern| SolveSchedule {
             subtrees: vec![Subtree {
                 first: 0,
@@ -1248,6 +1272,11 @@ impl SolveSchedule {
             top_index: vec![u32::MAX; n],
             above_slot: Vec::new(),
             inside: (0..ns).map(|s| (rptr[s + 1] - rptr[s]) as u32).collect(),
+            parent: if postordered {
+                parent.clone()
+            } else {
+                Vec::new()
+            },
             max_pattern,
         };
         if ns == 0 {
@@ -1257,22 +1286,10 @@ impl SolveSchedule {
             };
         }
         let total: usize = vptr[ns] - vptr[0];
-        if total < SPLIT_MIN_VALUES {
+        if total < SPLIT_MIN_VALUES || !postordered {
             return everything(max_pattern);
         }
-        // The supernodal tree: the parent is the supernode of the first pattern row.
-        let mut col_sn = vec![0usize; n];
-        for s in 0..ns {
-            col_sn[begin[s]..end[s]].iter_mut().for_each(|c| *c = s);
-        }
-        const NONE: usize = usize::MAX;
-        let parent: Vec<usize> = (0..ns)
-            .map(|s| {
-                rows.get(rptr[s])
-                    .filter(|_| rptr[s + 1] > rptr[s])
-                    .map_or(NONE, |&r| col_sn[r])
-            })
-            .collect();
+        const NONE: usize = NO_PARENT;
         // Subtree sizes and values; a postorder has each subtree at `s + 1 − size .. = s`.
         let mut size = vec![1usize; ns];
         let mut work: Vec<usize> = (0..ns).map(|s| vptr[s + 1] - vptr[s]).collect();
@@ -1356,8 +1373,35 @@ impl SolveSchedule {
             top_index,
             above_slot,
             inside,
+            parent,
             max_pattern,
         }
+    }
+
+    /// The supernodes a forward solve of `x` reaches (those with a nonzero right-hand side
+    /// and their ancestors), or `None` when that is (nearly) all of them.
+    fn reached<const W: usize>(&self, f: &FactorView<'_>, x: &[[f64; W]]) -> Option<Vec<bool>> {
+        let ns = self.parent.len();
+        if ns == 0 {
+            return None;
+        }
+        let mut active: Vec<bool> = (0..ns)
+            .map(|s| {
+                x[f.begin[s]..f.end[s]]
+                    .iter()
+                    .any(|v| v.iter().any(|&e| e != 0.0))
+            })
+            .collect();
+        for s in 0..ns {
+            if active[s] && self.parent[s] != NO_PARENT {
+                active[self.parent[s]] = true;
+            }
+        }
+        let reached: usize = (0..ns)
+            .filter(|&s| active[s])
+            .map(|s| f.vptr[s + 1] - f.vptr[s])
+            .sum();
+        (reached * 10 < (f.vptr[ns] - f.vptr[0]) * 9).then_some(active)
     }
 
     /// Disjoint mutable views of `x` on the subtrees' column ranges (ascending).
