@@ -115,33 +115,32 @@ impl CsrMatrix {
             }
         }
         // Order by (row, column), keeping the given order among duplicates (the sums are
-        // reproducible): a counting sort by row, then a stable insertion sort of each
-        // (short) row by column.
-        let mut start = vec![0usize; nrows + 1];
+        // reproducible): a stable counting sort by column, then a stable counting sort of
+        // that sequence by row.
+        let mut by_col = vec![0usize; ncols + 1];
+        for &(_, c, _) in triplets {
+            by_col[c + 1] += 1;
+        }
+        for j in 0..ncols {
+            by_col[j + 1] += by_col[j];
+        }
+        let mut column_order: Vec<u32> = vec![0; triplets.len()];
+        for (t, &(_, c, _)) in triplets.iter().enumerate() {
+            column_order[by_col[c]] = t as u32;
+            by_col[c] += 1;
+        }
+        let mut fill = vec![0usize; nrows + 1];
         for &(r, _, _) in triplets {
-            start[r + 1] += 1;
+            fill[r + 1] += 1;
         }
         for i in 0..nrows {
-            start[i + 1] += start[i];
+            fill[i + 1] += fill[i];
         }
-        let mut fill = start.clone();
         let mut order: Vec<u32> = vec![0; triplets.len()];
-        for (t, &(r, _, _)) in triplets.iter().enumerate() {
-            order[fill[r]] = t as u32;
+        for &t in &column_order {
+            let r = triplets[t as usize].0;
+            order[fill[r]] = t;
             fill[r] += 1;
-        }
-        for i in 0..nrows {
-            let row = &mut order[start[i]..start[i + 1]];
-            for a in 1..row.len() {
-                let x = row[a];
-                let cx = triplets[x as usize].1;
-                let mut b = a;
-                while b > 0 && triplets[row[b - 1] as usize].1 > cx {
-                    row[b] = row[b - 1];
-                    b -= 1;
-                }
-                row[b] = x;
-            }
         }
         let mut row_ptr = vec![0usize; nrows + 1];
         let mut col_idx = Vec::with_capacity(triplets.len());

@@ -291,12 +291,53 @@ fn split_triangular_solves_are_exact_and_thread_independent() {
         solver.solve_many(&mut beside, 2, Par::Seq).unwrap();
         assert_eq!(&beside[..n], &alone[..]);
         a.mul_vec(&alone, &mut ax, Par::Seq).unwrap();
-        let res = ax.iter().zip(&delta).map(|(p, q)| (p - q).abs()).fold(0.0, f64::max);
+        let res = ax
+            .iter()
+            .zip(&delta)
+            .map(|(p, q)| (p - q).abs())
+            .fold(0.0, f64::max);
         assert!(res < 1e-10, "residual {res}");
         // Positive on the source's sphere (M + L is an M-matrix on an icosphere: no obtuse
         // angles), exactly zero on the other one.
         let reach = n / components;
         assert!(alone[..reach].iter().all(|&v| v > 0.0));
         assert!(alone[reach..].iter().all(|&v| v == 0.0));
+    }
+}
+
+#[test]
+fn triplets_are_summed_in_the_given_order() {
+    // Reference: a map from (row, col) to the running sum, adding in the order given.
+    let mut state = 12345u64;
+    let mut next = || {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        state >> 33
+    };
+    let (nrows, ncols) = (37, 23);
+    let trip: Vec<(usize, usize, f64)> = (0..5000)
+        .map(|_| {
+            let r = (next() % nrows as u64) as usize;
+            let c = (next() % ncols as u64) as usize;
+            // Values of very different magnitudes: a different summation order would show.
+            let v = (next() % 1000) as f64 * 10f64.powi((next() % 12) as i32 - 6);
+            (r, c, v)
+        })
+        .collect();
+    let mut reference = std::collections::BTreeMap::new();
+    for &(r, c, v) in &trip {
+        *reference.entry((r, c)).or_insert(0.0) += v;
+    }
+    let m = CsrMatrix::from_triplets(nrows, ncols, &trip).unwrap();
+    assert_eq!(m.nnz(), reference.len());
+    let mut k = 0;
+    for i in 0..nrows {
+        for (j, v) in m.row(i) {
+            let (&(ri, rj), &rv) = reference.iter().nth(k).unwrap();
+            assert_eq!((i, j), (ri, rj));
+            assert_eq!(v.to_bits(), rv.to_bits(), "entry ({i}, {j})");
+            k += 1;
+        }
     }
 }
