@@ -296,10 +296,6 @@ pub struct HeatSolver {
     /// Per face: the cotangent weights `½ cot θ_k` of the edges opposite its corners `k`
     /// (its stiffness matrix `A ∇ψ_i · ∇ψ_j`) and `1 / A` (zeros for a degenerate face).
     stiffness: Vec<[f64; 4]>,
-    /// Corners (`3 · face + i`) around each vertex in face order: `corners[corner_ptr[v]..
-    /// corner_ptr[v + 1]]`.
-    corner_ptr: Vec<usize>,
-    corners: Vec<u32>,
     /// Connected component of each vertex (`u32::MAX` for unreferenced vertices).
     component: Vec<u32>,
     /// The pinned vertex of each component.
@@ -371,30 +367,11 @@ impl HeatSolver {
                 [half_cot(0), half_cot(1), half_cot(2), 2.0 / a2]
             })
             .collect();
-        let mut corner_ptr = vec![0usize; n + 1];
-        for t in &mesh.triangles {
-            for &v in t {
-                corner_ptr[v as usize + 1] += 1;
-            }
-        }
-        for v in 0..n {
-            corner_ptr[v + 1] += corner_ptr[v];
-        }
-        let mut fill = corner_ptr.clone();
-        let mut corners = vec![0u32; 3 * mesh.n_faces()];
-        for (f, t) in mesh.triangles.iter().enumerate() {
-            for (i, &v) in t.iter().enumerate() {
-                corners[fill[v as usize]] = (3 * f + i) as u32;
-                fill[v as usize] += 1;
-            }
-        }
         Ok(HeatSolver {
             n,
             time,
             triangles: mesh.triangles.clone(),
             stiffness,
-            corner_ptr,
-            corners,
             component,
             pins,
             heat,
@@ -524,8 +501,8 @@ impl HeatSolver {
     }
 
     /// `b = ∫ X · ∇ψ_i` for `X = −∇u/|∇u|`, with pinned rows zeroed. The per-face terms are
-    /// computed in parallel into `terms`; each vertex then sums its corners' terms in face order
-    /// (the order of a sequential scatter, so the bits do not depend on the thread count).
+    /// computed in parallel into `terms`, then added to `b` in face order (the bits do not
+    /// depend on the thread count).
     fn divergence(&self, u: &[f64], b: &mut [f64], terms: &mut [[f64; 3]], par: Par) {
         const CHUNK: usize = 4096;
         // b_i = −(K u)_i / |∇u| with K the face's cotangent stiffness matrix and
@@ -562,24 +539,12 @@ impl HeatSolver {
                     }
                 }),
         }
-        let terms: &[[f64; 3]] = terms;
-        let vertex_sum = |v: usize| -> f64 {
-            let mut sum = 0.0;
-            for &c in &self.corners[self.corner_ptr[v]..self.corner_ptr[v + 1]] {
-                sum += terms[(c / 3) as usize][(c % 3) as usize];
+        // In face order: a streaming pass (gathering per vertex would read `terms` at random).
+        b.iter_mut().for_each(|x| *x = 0.0);
+        for (t, tv) in self.triangles.iter().zip(terms.iter()) {
+            for i in 0..3 {
+                b[t[i] as usize] += tv[i];
             }
-            sum
-        };
-        match par {
-            Par::Seq => b
-                .iter_mut()
-                .enumerate()
-                .for_each(|(v, x)| *x = vertex_sum(v)),
-            Par::Rayon => b.par_chunks_mut(CHUNK).enumerate().for_each(|(c, chunk)| {
-                for (j, x) in chunk.iter_mut().enumerate() {
-                    *x = vertex_sum(c * CHUNK + j);
-                }
-            }),
         }
         for &p in &self.pins {
             b[p as usize] = 0.0;
