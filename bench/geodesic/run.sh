@@ -13,7 +13,7 @@ ratio() { # name, crestflow json, peer json
 import json, sys
 name, a, b = sys.argv[1], json.load(open(sys.argv[2])), json.load(open(sys.argv[3]))
 print("%s  n=%d  threads=%s" % (name, a["n"], a["threads"]))
-for k in ("precompute", "solve_one"):
+for k in ("precompute", "solve_one", "solve_one_cold"):
     print("  %-26s crestflow %9.4f s  potpourri3d %9.4f s  ratio %5.2fx" % (k, a[k], b[k], b[k] / a[k]))
 print("  %-26s crestflow %9.4f s  (potpourri3d %9.4f s one at a time: %5.2fx)" % (
     "solve_batched_per_source", a["solve_batched_per_source"], b["solve_one"],
