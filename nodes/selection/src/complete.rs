@@ -22,7 +22,8 @@
 //!    observed ones along a generator is a gap that may be filled (`fill_single_gaps`); two or
 //!    more neighbouring empty cells split the grid (counted, never filled).
 //! 6. Completion: the template is copied into every cell where an occurrence was observed (and
-//!    filled gaps); strong non-reoccurring curves are added unchanged with the label `Other`
+//!    filled gaps), without the parts that repeat an earlier copy (a template curve reaching
+//!    beyond its cell overlaps the copies next to it); strong non-reoccurring curves are added unchanged with the label `Other`
 //!    (the light blue of thesis Fig. 4.1–4.4 when rendered with `other_color`).
 //!
 //! Lengths in parameters are multiples of the mean edge length h of the model.
@@ -155,7 +156,7 @@ pub enum CompleteError {
 }
 
 /// How cells of a candidate map onto each other.
-enum Cells {
+pub(crate) enum Cells {
     /// Translation grid: p ≈ a g0 + b g1; origin offsets in grid units.
     Grid { g: Vec<V3>, z: Vec<f64> },
     /// Rotation about (axis, center) in steps of `step` radians; `order` 0 when open.
@@ -280,7 +281,89 @@ pub(crate) fn best_offset(values: &[f64], bins: usize) -> f64 {
 }
 
 /// The cells of a generator, with origins from the points `pts` of its curves.
-fn make_cells(gen: Option<&Generator>, pts: &[V3], bins: usize) -> Cells {
+/// Copies of the template in the given cells without their repeated parts: a template curve
+/// reaching beyond its cell (a ring about a rotation axis, a rail along a translation) overlaps
+/// its copies in the neighbouring cells, and only the first copy of each overlap is kept.
+pub(crate) fn place_template(
+    template: &[Poly],
+    cells: &Cells,
+    at: impl Iterator<Item = [i64; 2]>,
+    eps: f64,
+    min_len: f64,
+) -> Vec<Poly> {
+    let copies: Vec<Poly> = at
+        .flat_map(|cell| {
+            template.iter().map(move |pl| Poly {
+                pts: pl.pts.iter().map(|p| cells.map(cell, *p)).collect(),
+                ..pl.clone()
+            })
+        })
+        .collect();
+    drop_repeated_parts(&copies, eps, min_len)
+}
+
+/// The polylines in order, each without the points within `eps` of an earlier polyline's
+/// kept points; what remains of a polyline is split into runs, and runs shorter than
+/// `min_len` are dropped.
+pub(crate) fn drop_repeated_parts(polys: &[Poly], eps: f64, min_len: f64) -> Vec<Poly> {
+    use std::collections::HashMap;
+    let key = |p: V3| -> [i64; 3] {
+        [
+            (p[0] / eps).floor() as i64,
+            (p[1] / eps).floor() as i64,
+            (p[2] / eps).floor() as i64,
+        ]
+    };
+    // Only looked up, never iterated: the output does not depend on the hash order.
+    let mut kept_points: HashMap<[i64; 3], Vec<V3>> = HashMap::new();
+    let near_kept = |grid: &HashMap<[i64; 3], Vec<V3>>, p: V3| {
+        let k = key(p);
+        (-1..=1).any(|dx| {
+            (-1..=1).any(|dy| {
+                (-1..=1).any(|dz| {
+                    grid.get(&[k[0] + dx, k[1] + dy, k[2] + dz])
+                        .is_some_and(|v| v.iter().any(|q| norm(sub(*q, p)) <= eps))
+                })
+            })
+        })
+    };
+    let mut out = Vec::new();
+    for pl in polys {
+        let repeated: Vec<bool> = pl.pts.iter().map(|&p| near_kept(&kept_points, p)).collect();
+        let mut runs: Vec<Poly> = Vec::new();
+        if !repeated.iter().any(|&r| r) {
+            runs.push(pl.clone());
+        } else {
+            let mut i = 0;
+            while i < pl.pts.len() {
+                if repeated[i] {
+                    i += 1;
+                    continue;
+                }
+                let j = (i..pl.pts.len()).find(|&j| repeated[j]).unwrap_or(pl.pts.len());
+                runs.push(Poly {
+                    pts: pl.pts[i..j].to_vec(),
+                    strength: pl.strength[i..j].to_vec(),
+                    closed: false,
+                    label: pl.label,
+                });
+                i = j;
+            }
+        }
+        for run in runs {
+            if run.pts.len() < 2 || crate::curves::polyline_length(&run.pts, run.closed) < min_len {
+                continue;
+            }
+            for &p in &run.pts {
+                kept_points.entry(key(p)).or_default().push(p);
+            }
+            out.push(run);
+        }
+    }
+    out
+}
+
+pub(crate) fn make_cells(gen: Option<&Generator>, pts: &[V3], bins: usize) -> Cells {
     match gen {
         Some(Generator::Translation { steps }) if !steps.is_empty() => {
             let g: Vec<V3> = reduce_basis(&steps.iter().take(2).copied().collect::<Vec<_>>());
@@ -623,14 +706,15 @@ pub fn complete(
             push_curve(&mut tnet, pl);
             push_curve(&mut templates, pl);
         }
-        for cell in observed.iter().chain(filled.iter()) {
-            for pl in &template {
-                let moved = Poly {
-                    pts: pl.pts.iter().map(|p| cells.map(*cell, *p)).collect(),
-                    ..pl.clone()
-                };
-                push_curve(&mut out, &moved);
-            }
+        let placed = place_template(
+            &template,
+            &cells,
+            observed.iter().chain(filled.iter()).copied(),
+            eps,
+            min_len,
+        );
+        for pl in &placed {
+            push_curve(&mut out, pl);
         }
         per_template.push(Template {
             candidate: j,

@@ -327,3 +327,50 @@ fn mirrored_pair_completes_the_broken_copy() {
     let (hit, total) = covered(&out, &truth, 2.0 * H);
     assert!(hit / total > 0.97, "precision {}", hit / total);
 }
+
+#[test]
+fn copies_reaching_into_neighbouring_cells_are_merged() {
+    use crate::complete::{make_cells, place_template};
+    // A rotation of order 10 about the z axis; the template holds a ring around the axis
+    // (every copy lies on it) and one short arc per tooth, 0.3 away from the ring.
+    let gen = Generator::Rotation {
+        axis: [0.0, 0.0, 1.0],
+        center: [0.0, 0.0, 0.0],
+        angle_deg: 36.0,
+        order: 10,
+    };
+    let ring: Vec<V3> = (0..360)
+        .map(|i| {
+            let a = (i as f64).to_radians();
+            [a.cos(), a.sin(), 0.0]
+        })
+        .collect();
+    let arc: Vec<V3> = (0..=20)
+        .map(|i| {
+            let a = (5.0 + 0.5 * i as f64).to_radians();
+            [1.3 * a.cos(), 1.3 * a.sin(), 0.0]
+        })
+        .collect();
+    let cells = make_cells(Some(&gen), &arc, 36);
+    let mut closed_ring = poly(ring);
+    closed_ring.closed = true;
+    let template = vec![closed_ring, poly(arc)];
+    let all: Vec<[i64; 2]> = (0..10).map(|k| [k, 0]).collect();
+    let placed = place_template(&template, &cells, all.into_iter(), 0.05, 0.1);
+    // One ring (not ten on top of each other) and ten arcs.
+    let rings = placed
+        .iter()
+        .filter(|p| p.pts.iter().all(|q| ((q[0] * q[0] + q[1] * q[1]).sqrt() - 1.0).abs() < 1e-9))
+        .count();
+    let arcs = placed
+        .iter()
+        .filter(|p| p.pts.iter().all(|q| ((q[0] * q[0] + q[1] * q[1]).sqrt() - 1.3).abs() < 1e-9))
+        .count();
+    assert_eq!((rings, arcs, placed.len()), (1, 10, 11));
+    let ring_len: f64 = placed
+        .iter()
+        .filter(|p| p.pts.iter().all(|q| ((q[0] * q[0] + q[1] * q[1]).sqrt() - 1.0).abs() < 1e-9))
+        .map(|p| polyline_length(&p.pts, p.closed))
+        .sum();
+    assert!((ring_len - std::f64::consts::TAU).abs() < 0.02, "{ring_len}");
+}
