@@ -333,23 +333,32 @@ impl HeatSolver {
         let boundary: Vec<u32> = (0..n as u32)
             .filter(|&v| mesh.topology().is_boundary_vertex[v as usize])
             .collect();
-        let heat_dirichlet = if boundary.is_empty() {
-            None
-        } else {
-            let mut hd = heat_matrix.clone();
-            pin_rows(&mut hd, &boundary);
-            // Same pattern: the ordering and symbolic analysis are reused.
-            let mut solver = heat.clone();
-            solver.refactor(&hd)?;
-            Some(solver)
-        };
-
         let mut lp = l.add_diagonal(&unref)?;
         pin_rows(&mut lp, &pins);
-        // L + diag(unref) has the pattern of M + tL (L's rows hold their diagonal, the
-        // unreferenced vertices get one): reuse the analysis again.
-        let mut poisson = heat.clone();
-        poisson.refactor(&lp)?;
+        // The Dirichlet heat matrix and L + diag(unref) have the pattern of M + tL (L's rows
+        // hold their diagonal, the unreferenced vertices get one): both reuse its ordering and
+        // symbolic analysis, and their numeric factorisations run side by side (each on one
+        // thread, so the factors do not depend on the thread count).
+        let dirichlet = || -> Result<Option<SpdSolver>, HeatError> {
+            if boundary.is_empty() {
+                return Ok(None);
+            }
+            let mut hd = heat_matrix.clone();
+            pin_rows(&mut hd, &boundary);
+            let mut solver = heat.clone();
+            solver.refactor(&hd)?;
+            Ok(Some(solver))
+        };
+        let poisson = || -> Result<SpdSolver, HeatError> {
+            let mut solver = heat.clone();
+            solver.refactor(&lp)?;
+            Ok(solver)
+        };
+        let (heat_dirichlet, poisson) = match par {
+            Par::Seq => (dirichlet(), poisson()),
+            Par::Rayon => rayon::join(dirichlet, poisson),
+        };
+        let (heat_dirichlet, poisson) = (heat_dirichlet?, poisson?);
 
         let stiffness: Vec<[f64; 4]> = (0..mesh.n_faces())
             .map(|f| {
