@@ -154,6 +154,35 @@ fn batched_equals_single_and_seq_equals_rayon() {
 }
 
 #[test]
+fn split_solves_and_boundaries_give_the_same_bits_at_any_thread_count() {
+    // A sphere with a polar cap cut off: a boundary (Neumann and Dirichlet heat solves), and
+    // large enough for the triangular solves to be split over subtrees.
+    let full = sphere(1.0, 5).unwrap();
+    let triangles: Vec<[u32; 3]> = full
+        .triangles
+        .iter()
+        .copied()
+        .filter(|t| t.iter().any(|&v| full.positions[v as usize][2] < 0.8))
+        .collect();
+    let mesh = TriMesh::new(full.positions.clone(), triangles);
+    let a = HeatSolver::new(&mesh, 1.0, Par::Seq).unwrap();
+    let b = HeatSolver::new(&mesh, 1.0, Par::Rayon).unwrap();
+    let sources: Vec<HeatSource> = (0..5)
+        .map(|k| HeatSource::vertices(&[k * 1999 % 9000]))
+        .collect();
+    let seq = a.distances(&sources, Par::Seq).unwrap();
+    let par = b.distances(&sources, Par::Rayon).unwrap();
+    assert_eq!(seq, par);
+    for (k, src) in sources.iter().enumerate() {
+        assert_eq!(b.distance(src, Par::Rayon).unwrap(), seq[k]);
+    }
+    // The cut-off vertices are unreachable; the distances elsewhere are finite and positive.
+    let d = &seq[0].values;
+    assert!(d.iter().filter(|v| v.is_finite()).count() > 9000);
+    assert!(d.iter().any(|v| v.is_infinite()));
+}
+
+#[test]
 fn bad_inputs_are_typed_errors() {
     let mesh = sphere(1.0, 1).unwrap();
     let n = mesh.n_vertices();
