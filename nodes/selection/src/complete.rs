@@ -340,7 +340,9 @@ pub(crate) fn drop_repeated_parts(polys: &[Poly], eps: f64, min_len: f64) -> Vec
                     i += 1;
                     continue;
                 }
-                let j = (i..pl.pts.len()).find(|&j| repeated[j]).unwrap_or(pl.pts.len());
+                let j = (i..pl.pts.len())
+                    .find(|&j| repeated[j])
+                    .unwrap_or(pl.pts.len());
                 runs.push(Poly {
                     pts: pl.pts[i..j].to_vec(),
                     strength: pl.strength[i..j].to_vec(),

@@ -360,17 +360,32 @@ fn copies_reaching_into_neighbouring_cells_are_merged() {
     // One ring (not ten on top of each other) and ten arcs.
     let rings = placed
         .iter()
-        .filter(|p| p.pts.iter().all(|q| ((q[0] * q[0] + q[1] * q[1]).sqrt() - 1.0).abs() < 1e-9))
+        .filter(|p| {
+            p.pts
+                .iter()
+                .all(|q| ((q[0] * q[0] + q[1] * q[1]).sqrt() - 1.0).abs() < 1e-9)
+        })
         .count();
     let arcs = placed
         .iter()
-        .filter(|p| p.pts.iter().all(|q| ((q[0] * q[0] + q[1] * q[1]).sqrt() - 1.3).abs() < 1e-9))
+        .filter(|p| {
+            p.pts
+                .iter()
+                .all(|q| ((q[0] * q[0] + q[1] * q[1]).sqrt() - 1.3).abs() < 1e-9)
+        })
         .count();
     assert_eq!((rings, arcs, placed.len()), (1, 10, 11));
     let ring_len: f64 = placed
         .iter()
-        .filter(|p| p.pts.iter().all(|q| ((q[0] * q[0] + q[1] * q[1]).sqrt() - 1.0).abs() < 1e-9))
+        .filter(|p| {
+            p.pts
+                .iter()
+                .all(|q| ((q[0] * q[0] + q[1] * q[1]).sqrt() - 1.0).abs() < 1e-9)
+        })
         .map(|p| polyline_length(&p.pts, p.closed))
         .sum();
-    assert!((ring_len - std::f64::consts::TAU).abs() < 0.02, "{ring_len}");
+    assert!(
+        (ring_len - std::f64::consts::TAU).abs() < 0.02,
+        "{ring_len}"
+    );
 }
