@@ -15,7 +15,8 @@ dihedral angle above 30 degrees kept as features:
 Time: median of 3 runs (mesh setup excluded). `--ours` reads the JSON lines of the Rust bench
 (their `output` files are graded here like the peers' outputs).
 
-Grading (same code for every method): min angle, share of angles < 30 deg, share of valence-6
+Grading (same code for every method): min angle (over all triangles, and over the triangles
+with no corner on a sharp or boundary edge of the output), share of angles < 30 deg, share of valence-6
 interior vertices, Hausdorff distance to the input (pymeshlab get_hausdorff_distance, both
 directions, all vertices + 200k face samples, relative to the input's bbox diagonal), and
 sharp-edge preservation: of the input's sharp edges (> 30 deg), how many have both ends and
@@ -143,8 +144,28 @@ def features_kept(VA, FA, VB, FB):
     return r
 
 
+def min_angle_away_from_features(V, F):
+    """Smallest angle over the triangles with no corner on a sharp (> 30 deg) or boundary edge
+    of this mesh: near feature corners the angles are bounded by the corner's geometry."""
+    E = sharp_edges(V, F)
+    on = np.zeros(len(V), bool)
+    on[E.ravel()] = True
+    keep = ~on[F].any(1)
+    if not keep.any():
+        return None
+    G = F[keep]
+    a, b, c = V[G[:, 0]], V[G[:, 1]], V[G[:, 2]]
+
+    def ang(p, q, r):
+        u, w = q - p, r - p
+        return np.degrees(np.arctan2(np.linalg.norm(np.cross(u, w), axis=1), np.einsum("ij,ij->i", u, w)))
+
+    return float(min(ang(a, b, c).min(), ang(b, c, a).min(), ang(c, a, b).min()))
+
+
 def grade(VA, FA, VB, FB):
     r = quality(VB, FB)
+    r["min_angle_nonfeature_deg"] = min_angle_away_from_features(VB, FB)
     r.update(hausdorff(VA, FA, VB, FB))
     r.update(features_kept(VA, FA, VB, FB))
     return r
@@ -258,7 +279,7 @@ def main():
         for o in ours:
             if o["mesh"].rsplit("/", 1)[-1].rsplit(".", 1)[0] == stem and float(o["target_pct"]) == pct:
                 Vo, Fo = load(o["output"])
-                rows.append({"method": "crestflow", "time_s": o["time_pool_s"],
+                rows.append({"method": o.get("method", "crestflow"), "time_s": o["time_pool_s"],
                              "time_1thread_s": o["time_1thread_s"], **grade(V, F, Vo, Fo)})
         if "pymeshlab" in methods:
             try:

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Isotropic remeshing against pymeshlab, gpytoolbox and CGAL on the same meshes in the same run,
-# at 1 % and 2 % of the bounding-box diagonal (10 rounds, edges sharper than 30° kept). Run from
+# at 1 % and 2 % of the bounding-box diagonal (10 rounds, edges sharper than 30° kept), ours with
+# default parameters and with feature_grading = $GRADING (default 0.3). Run from
 # the repository root:
 #
 #   python3 -m venv ../venv-peers && ../venv-peers/bin/pip install numpy scipy pymeshlab gpytoolbox cgal
@@ -30,6 +31,13 @@ for m in $MESHES; do ABS+=("$(realpath "$m")"); done
 
 cargo bench -q -p crestflow-nodes-remesh --bench remesh -- "$OUT" "${ABS[@]}" --targets "$TARGETS" \
     | tee "$OUT/ours.jsonl"
+# The same with local refinement along curved features (method crestflow_graded); GRADING=0
+# skips it.
+GRADING=${GRADING:-0.3}
+if [ "$GRADING" != "0" ]; then
+    cargo bench -q -p crestflow-nodes-remesh --bench remesh -- "$OUT" "${ABS[@]}" --targets "$TARGETS" \
+        --feature-grading "$GRADING" | tee -a "$OUT/ours.jsonl"
+fi
 : > "$OUT/results.jsonl"
 for m in "${ABS[@]}"; do
     "$PYTHON" bench/remesh/peer.py "$m" --targets "$TARGETS" --ours "$OUT/ours.jsonl" \
@@ -40,16 +48,17 @@ done
 import json, sys
 rows = [json.loads(l) for l in open(sys.argv[1]) if l.strip()]
 print()
-print("| mesh | target | method | time s | fastest peer / this | min angle | angles < 30° | valence 6 | Hausdorff (diag) | sharp edges kept / in | V out |")
-print("|---|---|---|---|---|---|---|---|---|---|---|")
+print("| mesh | target | method | time s | fastest peer / this | min angle | min angle off features | angles < 30° | valence 6 | Hausdorff (diag) | sharp edges kept / in | V out |")
+print("|---|---|---|---|---|---|---|---|---|---|---|---|")
 for key in sorted({(r["mesh"], r["target_pct"]) for r in rows}):
     group = [r for r in rows if (r["mesh"], r["target_pct"]) == key and "time_s" in r]
-    peers = [r["time_s"] for r in group if r["method"] != "crestflow"]
+    peers = [r["time_s"] for r in group if not r["method"].startswith("crestflow")]
     fastest = min(peers) if peers else float("nan")
     for r in group:
-        print("| %s | %g %% | %s | %.3f | %.1f× | %.2f° | %.4f | %.3f | %.5f | %d / %d | %d |" % (
+        print("| %s | %g %% | %s | %.3f | %.1f× | %.2f° | %.2f° | %.4f | %.3f | %.5f | %d / %d | %d |" % (
             r["mesh"], r["target_pct"], r["method"], r["time_s"], fastest / r["time_s"],
-            r["min_angle_deg"], r["frac_angles_lt_30"], r["valence6_share"] or 0,
+            r["min_angle_deg"], r.get("min_angle_nonfeature_deg") or float("nan"),
+            r["frac_angles_lt_30"], r["valence6_share"] or 0,
             r["hausdorff_rel"], r["sharp_edges_kept"], r["sharp_edges_in"], r["n_vertices"]))
     for r in rows:
         if (r["mesh"], r["target_pct"]) == key and "error" in r:

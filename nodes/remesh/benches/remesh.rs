@@ -1,7 +1,8 @@
 //! Remeshing speed and output for the peer comparison (`bench/remesh/run.sh`).
 //!
 //!   cargo bench -p crestflow-nodes-remesh --bench remesh -- OUT_DIR MESH... [--targets 1,2]
-//!       [--feature-tolerance 0.002]
+//!       [--feature-tolerance 0.002] [--iterations 10] [--smoothing-steps 5]
+//!       [--feature-grading 0]
 //!
 //! For each mesh and target (percent of the bounding-box diagonal): the median of 3 runs of
 //! `remesh.isotropic` (default parameters: 10 rounds, sharp edges > 30° kept) at 1 thread
@@ -29,6 +30,27 @@ fn main() {
     if let Some(i) = args.iter().position(|a| a == "--feature-tolerance") {
         if let Some(t) = args.get(i + 1).and_then(|t| t.parse().ok()) {
             feature_tolerance = t;
+        }
+        args.drain(i..(i + 2).min(args.len()));
+    }
+    let mut iterations = IsotropicParams::default().iterations;
+    if let Some(i) = args.iter().position(|a| a == "--iterations") {
+        if let Some(t) = args.get(i + 1).and_then(|t| t.parse().ok()) {
+            iterations = t;
+        }
+        args.drain(i..(i + 2).min(args.len()));
+    }
+    let mut feature_grading = IsotropicParams::default().feature_grading;
+    if let Some(i) = args.iter().position(|a| a == "--feature-grading") {
+        if let Some(t) = args.get(i + 1).and_then(|t| t.parse().ok()) {
+            feature_grading = t;
+        }
+        args.drain(i..(i + 2).min(args.len()));
+    }
+    let mut smoothing_steps = IsotropicParams::default().smoothing_steps;
+    if let Some(i) = args.iter().position(|a| a == "--smoothing-steps") {
+        if let Some(t) = args.get(i + 1).and_then(|t| t.parse().ok()) {
+            smoothing_steps = t;
         }
         args.drain(i..(i + 2).min(args.len()));
     }
@@ -66,6 +88,9 @@ fn main() {
             let params = IsotropicParams {
                 target: pct / 100.0,
                 feature_tolerance,
+                iterations,
+                smoothing_steps,
+                feature_grading,
                 ..Default::default()
             };
             let mut times = Vec::new();
@@ -87,7 +112,13 @@ fn main() {
                 times.push(median(runs));
             }
             let Some(out) = out else { continue };
-            let file = out_dir.join(format!("{stem}.crestflow_{pct}pct.obj"));
+            // A graded run is a method of its own in the comparison.
+            let method = if feature_grading > 0.0 {
+                "crestflow_graded"
+            } else {
+                "crestflow"
+            };
+            let file = out_dir.join(format!("{stem}.{method}_{pct}pct.obj"));
             if let Err(e) = save_mesh_obj(&file, &out.mesh, None) {
                 eprintln!("{e}");
                 std::process::exit(1);
@@ -102,7 +133,7 @@ fn main() {
                 })
                 .collect();
             println!(
-                "{{\"method\": \"crestflow\", \"mesh\": \"{path}\", \"target_pct\": {pct}, \
+                "{{\"method\": \"{method}\", \"mesh\": \"{path}\", \"target_pct\": {pct}, \
                  \"time_1thread_s\": {:.6}, \"time_pool_s\": {:.6}, \
                  \"threads\": {}, \"output\": \"{}\", {}}}",
                 times[0],

@@ -112,6 +112,83 @@ impl Chain {
     }
 }
 
+impl Chain {
+    /// Per point, the longest output edge the chain allows around it: the longest chord over
+    /// at most 64 points whose stretch of chain contains the point and stays within `tol` of
+    /// the chord, capped at `cap`. On a loop, chords may wrap around but not span more than
+    /// half of it.
+    pub fn edge_capacity(&self, tol: f64, cap: f64) -> Vec<f64> {
+        const WINDOW: usize = 64;
+        let n = self.pts.len();
+        let total = self.total();
+        // A loop repeats its first point at the end: wrap over the n - 1 distinct ones.
+        let m = if self.closed {
+            n.saturating_sub(1).max(1)
+        } else {
+            n
+        };
+        // For each start point, how many points its longest admissible chord spans, and its
+        // arc length.
+        let reach: Vec<(usize, f64)> = (0..m)
+            .map(|a| {
+                let sa = self.cum[a];
+                let pa = self.pts[a];
+                let mut best = (0, 0.0);
+                for k in 1..=WINDOW {
+                    let j = a + k;
+                    let (sj, span) = if self.closed {
+                        let sj = self.cum[j % m];
+                        (sj, (sj - sa).rem_euclid(total))
+                    } else {
+                        if j >= n {
+                            break;
+                        }
+                        (self.cum[j], self.cum[j] - sa)
+                    };
+                    if self.closed && (span > 0.5 * total || k >= m) {
+                        break;
+                    }
+                    if span > cap {
+                        // A single segment longer than the cap still allows the cap.
+                        if k == 1 {
+                            best = (1, cap);
+                        }
+                        break;
+                    }
+                    if k > 1 && self.deviation(sa, sj, pa, self.point_at(sj)) > tol {
+                        break;
+                    }
+                    best = (k, span);
+                }
+                best
+            })
+            .collect();
+        (0..n)
+            .map(|i| {
+                let i = i % m;
+                let mut h: f64 = 0.0;
+                for d in 0..=WINDOW.min(if self.closed { m - 1 } else { i }) {
+                    let a = (i + m - d) % m;
+                    if reach[a].0 >= d {
+                        h = h.max(reach[a].1);
+                    }
+                }
+                h.min(cap)
+            })
+            .collect()
+    }
+
+    /// The point index `i` with `cum[i] <= s < cum[i + 1]` (wrapped like [`Chain::point_at`]).
+    pub fn segment_at(&self, s: f64) -> usize {
+        let s = self.wrap(s);
+        let n = self.pts.len();
+        if n < 2 {
+            return 0;
+        }
+        self.cum.partition_point(|&c| c <= s).clamp(1, n - 1) - 1
+    }
+}
+
 #[cfg(test)]
 #[path = "chain_test.rs"]
 mod tests;

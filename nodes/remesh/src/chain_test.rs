@@ -66,3 +66,23 @@ fn loops_take_the_shorter_way_round() {
     let d = c.deviation(a, b, c.point_at(a), c.point_at(b));
     assert!((d - 0.5 / 2f64.sqrt()).abs() < 1e-12, "{d}");
 }
+
+#[test]
+fn edge_capacity_is_the_longest_straight_chord_through_each_point() {
+    // The L: (0,0)-(1,0)-(2,0) is straight (a chord of 2 covers points 0..2); the last
+    // segment turns by 90°, so only its own length 1 is allowed there.
+    let c = ell();
+    assert_eq!(c.edge_capacity(1e-9, 10.0), vec![2.0, 2.0, 2.0, 1.0]);
+    // The cap bounds every value.
+    assert_eq!(c.edge_capacity(1e-9, 1.5), vec![1.0, 1.0, 1.0, 1.0]);
+    // A tolerance above the bend's deviation from the chord (1,0)-(2,1) (1/sqrt(2)) lets that
+    // chord through, but not the one from (0,0) to (2,1), which misses (2,0) by 2/sqrt(5).
+    let h = c.edge_capacity(0.75, 10.0);
+    assert_eq!(h[3], 2.0);
+    assert_eq!(h[0], 2.0);
+    // A unit square loop at a tolerance below 1/sqrt(2)·0.5: only single sides fit, and the
+    // wrap-around point gets the same as the first.
+    let sq = square();
+    let h = sq.edge_capacity(0.1, 10.0);
+    assert!(h.iter().all(|&x| x == 1.0), "{h:?}");
+}

@@ -36,7 +36,7 @@ use crestflow_geom::mesh::NO_FACE;
 use crestflow_geom::vec3::{self, V3};
 use crestflow_geom::{FeatureCurveNetwork, TriMesh};
 
-use crate::bvh::Bvh;
+use crate::project::Projector;
 
 /// Where a network vertex lies on a mesh element that does not exist.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -85,7 +85,7 @@ pub fn mark_features(
     mesh: &TriMesh,
     sharp_angle_deg: Option<f64>,
     curves: Option<&FeatureCurveNetwork>,
-    bvh: &Bvh,
+    surface: &Projector,
 ) -> Result<FeatureEdges, FeatureError> {
     let topo = mesh.topology();
     let ne = topo.edges.len();
@@ -112,7 +112,7 @@ pub fn mark_features(
         }
     }
     if let Some(net) = curves {
-        let snapped = snap_vertices(mesh, net, bvh)?;
+        let snapped = snap_vertices(mesh, net, surface)?;
         for (ci, curve) in net.curves.iter().enumerate() {
             if let Some(&index) = curve
                 .vertices
@@ -310,7 +310,7 @@ fn erase_loops(mut seq: Vec<(u32, u32)>, closed: bool) -> Vec<(u32, u32)> {
 fn snap_vertices(
     mesh: &TriMesh,
     net: &FeatureCurveNetwork,
-    bvh: &Bvh,
+    surface: &Projector,
 ) -> Result<Vec<u32>, FeatureError> {
     let (nv, nf) = (mesh.n_vertices() as u32, mesh.n_faces() as u32);
     let bad = |vertex: usize, element: &'static str, index: u32, n: u32| FeatureError::Location {
@@ -363,7 +363,7 @@ fn snap_vertices(
                 Ok(t[k])
             }
             SurfacePoint::Free => {
-                let hit = bvh.closest(v.position);
+                let hit = surface.bvh().closest(v.position);
                 Ok(nearest_corner(hit.face, v.position))
             }
         })

@@ -17,6 +17,7 @@ pub mod bvh;
 pub mod chain;
 pub mod features;
 pub mod isotropic;
+pub mod project;
 
 pub use isotropic::{isotropic, IsotropicNode, IsotropicParams, RemeshError, RemeshOutput};
 

@@ -491,6 +491,16 @@ fn bad_input_gives_clear_errors() {
     );
 
     let bad = IsotropicParams {
+        feature_grading: -1.0,
+        ..abs(0.2)
+    };
+    let e = isotropic(&sphere, None, &bad, Par::Seq).unwrap_err();
+    assert!(
+        matches!(&e, RemeshError::Params(m) if m.contains("feature_grading")),
+        "{e}"
+    );
+
+    let bad = IsotropicParams {
         iterations: 5000,
         ..abs(0.2)
     };
@@ -652,4 +662,82 @@ fn degenerate_input_terminates_with_a_valid_mesh() {
     }
     let area = out.mesh.total_area();
     assert!((area - 1.0).abs() < 1e-9, "area {area}");
+}
+
+/// Mean length of the output edges with an end on a rim (|z| = 1) and of those with both ends
+/// in the middle band |z| < 0.4.
+fn rim_and_middle_edge_lengths(m: &TriMesh) -> (f64, f64) {
+    let topo = m.topology();
+    let (mut rim, mut nr, mut mid, mut nm) = (0.0, 0, 0.0, 0);
+    for &[a, b] in &topo.edges {
+        let (pa, pb) = (m.positions[a as usize], m.positions[b as usize]);
+        let l = vec3::dist(pa, pb);
+        if pa[2].abs() > 1.0 - 1e-9 || pb[2].abs() > 1.0 - 1e-9 {
+            rim += l;
+            nr += 1;
+        } else if pa[2].abs() < 0.4 && pb[2].abs() < 0.4 {
+            mid += l;
+            nm += 1;
+        }
+    }
+    (rim / nr as f64, mid / nm as f64)
+}
+
+#[test]
+fn feature_grading_refines_along_dense_features_only() {
+    // Rims of 96 vertices (edges of 2π/96 ≈ 0.065) kept to rounding, at a target of 0.3: the
+    // rims cannot get longer edges, so without grading their triangles are needles (a side of
+    // 0.065 against apexes ~0.3 away); with grading the target shrinks to the rim's edge
+    // length next to it and grows back to L within a few rings.
+    let n = 96;
+    let input = shapes::cylinder(1.0, 2.0, n, 24, 0.0, 1).unwrap();
+    let l = 0.3;
+    let rim_edge = 2.0 * (std::f64::consts::PI / n as f64).sin();
+    let base = IsotropicParams {
+        feature_tolerance: 1e-9,
+        ..abs(l)
+    };
+    let graded = IsotropicParams {
+        feature_grading: 0.3,
+        ..base.clone()
+    };
+    let plain = isotropic(&input, None, &base, Par::Rayon).unwrap();
+    let out = isotropic(&input, None, &graded, Par::Rayon).unwrap();
+    let seq = isotropic(&input, None, &graded, Par::Seq).unwrap();
+    assert_eq!(
+        out.mesh, seq.mesh,
+        "graded output depends on the thread count"
+    );
+    let m = &out.mesh;
+    assert_manifold(m);
+    // Every rim vertex is kept.
+    for j in [0, 24] {
+        for p in &input.positions[j * n..(j + 1) * n] {
+            let d = m
+                .positions
+                .iter()
+                .map(|q| vec3::dist(*p, *q))
+                .fold(f64::INFINITY, f64::min);
+            assert!(d < 1e-9, "rim vertex {p:?} lost");
+        }
+    }
+    let (a_plain, a_graded) = (min_angle_deg(&plain.mesh), min_angle_deg(m));
+    let (rim_plain, mid_plain) = rim_and_middle_edge_lengths(&plain.mesh);
+    let (rim_graded, mid_graded) = rim_and_middle_edge_lengths(m);
+    eprintln!(
+        "min angle {a_plain} -> {a_graded}; rim edges {rim_plain} -> {rim_graded}, middle \
+         {mid_plain} -> {mid_graded}; vertices {} -> {}",
+        plain.mesh.n_vertices(),
+        m.n_vertices()
+    );
+    // Needles without grading (about 11°), none below the collapses' 20° with it (about 24°).
+    assert!(
+        a_plain < 15.0,
+        "needles expected without grading: {a_plain}"
+    );
+    assert!(a_graded > 20.0, "graded min angle {a_graded}");
+    // Short edges along the rims, the target in the middle.
+    assert!(rim_graded < 1.5 * rim_edge, "{rim_graded} vs {rim_edge}");
+    assert!((mid_graded - l).abs() < 0.2 * l, "{mid_graded} vs {l}");
+    assert!((mid_plain - l).abs() < 0.2 * l, "{mid_plain} vs {l}");
 }
