@@ -358,30 +358,17 @@ fn copies_reaching_into_neighbouring_cells_are_merged() {
     let all: Vec<[i64; 2]> = (0..10).map(|k| [k, 0]).collect();
     let placed = place_template(&template, &cells, all.into_iter(), 0.05, 0.1);
     // One ring (not ten on top of each other) and ten arcs.
-    let rings = placed
-        .iter()
-        .filter(|p| {
-            p.pts
-                .iter()
-                .all(|q| ((q[0] * q[0] + q[1] * q[1]).sqrt() - 1.0).abs() < 1e-9)
-        })
-        .count();
-    let arcs = placed
-        .iter()
-        .filter(|p| {
-            p.pts
-                .iter()
-                .all(|q| ((q[0] * q[0] + q[1] * q[1]).sqrt() - 1.3).abs() < 1e-9)
-        })
-        .count();
+    let on_circle = |p: &&Poly, r: f64| {
+        p.pts
+            .iter()
+            .all(|q| ((q[0] * q[0] + q[1] * q[1]).sqrt() - r).abs() < 1e-9)
+    };
+    let rings = placed.iter().filter(|p| on_circle(p, 1.0)).count();
+    let arcs = placed.iter().filter(|p| on_circle(p, 1.3)).count();
     assert_eq!((rings, arcs, placed.len()), (1, 10, 11));
     let ring_len: f64 = placed
         .iter()
-        .filter(|p| {
-            p.pts
-                .iter()
-                .all(|q| ((q[0] * q[0] + q[1] * q[1]).sqrt() - 1.0).abs() < 1e-9)
-        })
+        .filter(|p| on_circle(p, 1.0))
         .map(|p| polyline_length(&p.pts, p.closed))
         .sum();
     assert!(
