@@ -7,6 +7,8 @@
 //!   (from a [`FeatureCurveNetwork`](crestflow_geom::FeatureCurveNetwork), sharp dihedral
 //!   angles and boundaries) in the output; feature vertices slide along their chain
 //!   ([`chain`]: arc-length parametrised feature polylines) without cutting its bends.
+//! - `remesh.sharp_edges` ([`sharp_edges`]): those sharp-edge and boundary chains as a feature
+//!   curve network (the features of CAD meshes, e.g. for the symmetry nodes).
 
 // Comparisons are written `!(x > y)` where NaN must take the rejecting branch.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
@@ -18,10 +20,13 @@ pub mod chain;
 pub mod features;
 pub mod isotropic;
 pub mod project;
+pub mod sharp_edges;
 
 pub use isotropic::{isotropic, IsotropicNode, IsotropicParams, RemeshError, RemeshOutput};
+pub use sharp_edges::{sharp_edges, SharpEdgesNode, SharpEdgesParams};
 
 /// Adds this family's node kinds to `registry`.
 pub fn register(registry: &mut Registry) {
     registry.add::<IsotropicNode>();
+    registry.add::<SharpEdgesNode>();
 }

@@ -7,6 +7,7 @@ use std::time::Instant;
 use crestflow_flow::Par;
 use crestflow_geom::io::{load_mesh, LoadOptions};
 use crestflow_nodes_curvature::{polynomial_curvature, PolynomialParams};
+use crestflow_nodes_remesh::{isotropic, sharp_edges, IsotropicParams, SharpEdgesParams};
 use crestflow_nodes_ridges::{trace, TraceParams};
 use crestflow_nodes_symmetry::{
     blast, cluster, orbits, BlastParams, ClusterParams, Generator, OrbitParams,
@@ -20,6 +21,52 @@ const MESHES: &[&str] = &[
     "cad/cgal_couplingdown.off",
     "cad/cgal_cheese.off",
 ];
+
+/// The chain of `graphs/symmetry-cad.ron`: isotropic remeshing at 0.5 % of the diagonal
+/// (creases kept), the sharp-edge chains as curves, then the thesis defaults. Returns the
+/// strongest orbit's generator and its instance count.
+fn cad_chain(name: &str) -> (Generator, usize) {
+    let root = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data/meshes/");
+    let mesh = load_mesh(format!("{root}{name}"), &LoadOptions::default())
+        .expect("mesh")
+        .mesh;
+    let remeshed = isotropic(
+        &mesh,
+        None,
+        &IsotropicParams {
+            target: 0.005,
+            ..Default::default()
+        },
+        Par::Rayon,
+    )
+    .expect("remesh")
+    .mesh;
+    let net = sharp_edges(&remeshed, &SharpEdgesParams::default())
+        .expect("sharp edges")
+        .network;
+    let m = blast(&net, &remeshed, &BlastParams::default(), Par::Rayon).expect("blast");
+    let c = cluster(&m, &ClusterParams::default(), Par::Rayon).expect("cluster");
+    let o = orbits(&c, &OrbitParams::default(), Par::Rayon).expect("orbits");
+    let best = o.orbits.first().expect("an orbit");
+    (best.generator.clone(), best.instances)
+}
+
+/// The pinion has 10 teeth; the turbine's flange 10 bolt holes (counted on the meshes by
+/// rotating surface samples about the symmetry axis).
+#[test]
+fn cad_chain_finds_the_rotation_orders_of_pinion_and_turbine() {
+    for name in ["cad/cgal_pinion.off", "cad/cgal_turbine.off"] {
+        let (generator, instances) = cad_chain(name);
+        let Generator::Rotation {
+            angle_deg, order, ..
+        } = generator
+        else {
+            panic!("{name}: strongest orbit {generator:?}");
+        };
+        assert!((angle_deg - 36.0).abs() < 1.0, "{name}: {angle_deg}°");
+        assert_eq!((order, instances), (10, 10), "{name}");
+    }
+}
 
 /// Thesis defaults, and a short-match setting for coarse CAD meshes whose mean edge length is
 /// dominated by the long edges of flat faces (a gear tooth is then only a few edge lengths long).

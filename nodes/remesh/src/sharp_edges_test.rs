@@ -1,0 +1,140 @@
+//! Unit tests of `sharp_edges.rs`.
+
+use super::*;
+use crestflow_geom::shapes::cylinder;
+
+/// A closed prism over a regular `k`-gon (radius 1, height 1), caps fanned from a centre.
+fn prism(k: usize) -> TriMesh {
+    let mut p = Vec::new();
+    for z in [0.0, 1.0] {
+        for i in 0..k {
+            let a = 2.0 * std::f64::consts::PI * i as f64 / k as f64;
+            p.push([a.cos(), a.sin(), z]);
+        }
+    }
+    p.push([0.0, 0.0, 0.0]);
+    p.push([0.0, 0.0, 1.0]);
+    let (cb, ct) = (2 * k as u32, 2 * k as u32 + 1);
+    let mut t = Vec::new();
+    for i in 0..k as u32 {
+        let j = (i + 1) % k as u32;
+        let (b0, b1, t0, t1) = (i, j, i + k as u32, j + k as u32);
+        t.push([b0, b1, t1]);
+        t.push([b0, t1, t0]);
+        t.push([cb, b1, b0]);
+        t.push([ct, t0, t1]);
+    }
+    TriMesh::new(p, t)
+}
+
+#[test]
+fn hexagonal_prism_gives_its_18_creases() {
+    let out = sharp_edges(&prism(6), &SharpEdgesParams::default()).unwrap();
+    // 6 vertical edges (normals 60° apart) and 12 rim edges (90°); the fan and side
+    // diagonals are flat. Every rim vertex has three creases: a corner, so each crease is
+    // its own curve.
+    assert_eq!(out.network.curves.len(), 18);
+    assert_eq!(out.report.num("sharp_edges"), Some(18.0));
+    assert_eq!(out.report.num("corners"), Some(12.0));
+    let mut vertical = 0;
+    for (c, curve) in out.network.curves.iter().enumerate() {
+        assert_eq!(curve.vertices.len(), 2);
+        assert!(!curve.closed);
+        let (a, b) = (
+            &out.network.vertices[curve.vertices[0] as usize],
+            &out.network.vertices[curve.vertices[1] as usize],
+        );
+        // Rim vertices carry the sharpest crease at them: 90°.
+        assert!((a.strength - std::f64::consts::FRAC_PI_2).abs() < 1e-12);
+        if (a.position[2] - b.position[2]).abs() > 0.5 {
+            vertical += 1;
+            assert!((out.network.curve_length(c) - 1.0).abs() < 1e-12);
+        }
+    }
+    assert_eq!(vertical, 6);
+    // A blunter threshold keeps only the rims: 60° normals are not above 60°.
+    let rims = sharp_edges(
+        &prism(6),
+        &SharpEdgesParams {
+            angle_deg: 60.5,
+            corner_angle_deg: 75.0,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    assert_eq!(rims.report.num("sharp_edges"), Some(12.0));
+    // The rims alone are two hexagons whose vertices turn by 60°, below a corner angle of
+    // 75°: two closed curves of six vertices each.
+    assert_eq!(rims.network.curves.len(), 2);
+    for c in &rims.network.curves {
+        assert!(c.closed);
+        assert_eq!(c.vertices.len(), 6);
+    }
+}
+
+#[test]
+fn open_cylinder_rims_are_closed_boundary_loops() {
+    let mesh = cylinder(1.0, 2.0, 32, 8, 0.0, 1).unwrap();
+    let out = sharp_edges(&mesh, &SharpEdgesParams::default()).unwrap();
+    assert_eq!(out.report.num("sharp_edges"), Some(0.0));
+    assert_eq!(out.report.num("boundary_edges"), Some(64.0));
+    assert_eq!(out.network.curves.len(), 2);
+    for (c, curve) in out.network.curves.iter().enumerate() {
+        assert!(curve.closed);
+        assert_eq!(curve.vertices.len(), 32);
+        let perimeter = 64.0 * (std::f64::consts::PI / 32.0).sin();
+        assert!((out.network.curve_length(c) - perimeter).abs() < 1e-9);
+    }
+    let none = sharp_edges(
+        &mesh,
+        &SharpEdgesParams {
+            boundaries: false,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    assert!(none.network.curves.is_empty());
+    // Short chains go: a prism's single-edge creases are all below two edges.
+    let long_only = sharp_edges(
+        &prism(6),
+        &SharpEdgesParams {
+            min_edges: 2,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    assert!(long_only.network.curves.is_empty());
+    assert_eq!(long_only.report.num("curves_dropped_short"), Some(18.0));
+}
+
+#[test]
+fn bad_meshes_are_named() {
+    let empty = TriMesh::new(vec![[0.0; 3]; 3], vec![]);
+    assert_eq!(
+        sharp_edges(&empty, &SharpEdgesParams::default()).unwrap_err(),
+        SharpEdgesError::Empty { vertices: 3 }
+    );
+    let mut nan = prism(4);
+    nan.positions[5][1] = f64::NAN;
+    assert!(matches!(
+        sharp_edges(&nan, &SharpEdgesParams::default()).unwrap_err(),
+        SharpEdgesError::NonFinite { vertex: 5, .. }
+    ));
+    let mut bad = prism(4);
+    bad.triangles[3][2] = 99;
+    assert_eq!(
+        sharp_edges(&bad, &SharpEdgesParams::default()).unwrap_err(),
+        SharpEdgesError::BadIndex {
+            face: 3,
+            index: 99,
+            n: 10
+        }
+    );
+    let issues = SharpEdgesParams {
+        angle_deg: 0.0,
+        min_edges: 0,
+        ..Default::default()
+    }
+    .validate();
+    assert_eq!(issues.len(), 2, "{issues:?}");
+}
