@@ -36,6 +36,10 @@ use serde::{Deserialize, Serialize};
 use crate::blast::CurveMatches;
 use crate::transform::{fit_rigid, mean_transform, quat_angle_deg, RigidTransform};
 
+/// Cell size (in units of the stopping radius) of the grid that merges near-identical
+/// transformations before the agglomeration.
+const PREMERGE_CELL: f64 = 0.2;
+
 /// Parameters of `symmetry.cluster`. Lengths are multiples of the mean edge length h.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -386,19 +390,49 @@ fn consolidate(
     angle: f64,
     par: Par,
 ) -> Vec<(Vec<usize>, RigidTransform)> {
+    // Candidates come from an R-tree over (T_k(o), q_k) for a fixed point o: a match whose
+    // rotation is within `angle` of x and whose centroid x maps within e has T_k(o) within
+    // e + M + 2 sin(angle/2) D of x(o) (D the largest distance of a centroid from o, M the
+    // largest distance between a match's mapped and target centroids), so the query returns
+    // every candidate the tests below accept (the same result as testing all matches), and
+    // on a mesh with many copies of one feature not the thousands of equal rotations.
     let n = items.len();
+    let o = centroid(&items.iter().map(|it| it.c_src).collect::<Vec<_>>());
+    let reach = items
+        .iter()
+        .map(|it| dist(it.c_src, o))
+        .fold(0.0f64, f64::max);
+    let slack = items
+        .iter()
+        .map(|it| dist(it.t.apply(it.c_src), it.c_dst))
+        .fold(0.0f64, f64::max);
+    let bound = (e + slack + 2.0 * (0.5 * angle.to_radians()).sin() * reach).max(f64::MIN_POSITIVE);
+    // Unit quaternions of rotations δ apart are 2 sin(δ/4) apart.
+    let qr = 2.0 * (0.25 * angle.to_radians()).sin();
+    let key = |x: &RigidTransform, sign: f64| -> [f64; 7] {
+        let (p, q) = (x.apply(o), x.quaternion());
+        [
+            p[0] / bound,
+            p[1] / bound,
+            p[2] / bound,
+            sign * q[0] / qr,
+            sign * q[1] / qr,
+            sign * q[2] / qr,
+            sign * q[3] / qr,
+        ]
+    };
     let mut qpts = Vec::with_capacity(2 * n);
     for (k, it) in items.iter().enumerate() {
-        let q = it.t.quaternion();
-        qpts.push(rstar::primitives::GeomWithData::new(q, k as u32));
         qpts.push(rstar::primitives::GeomWithData::new(
-            q.map(|x| -x),
+            key(&it.t, 1.0),
+            k as u32,
+        ));
+        qpts.push(rstar::primitives::GeomWithData::new(
+            key(&it.t, -1.0),
             k as u32,
         ));
     }
     let qtree = rstar::RTree::bulk_load(qpts);
-    // Unit quaternions of rotations δ apart are 2 sin(δ/4) apart.
-    let qr = 2.0 * (0.25 * angle.to_radians()).sin();
     let mut order: Vec<usize> = (0..groups.len()).collect();
     order.sort_by(|&a, &b| {
         groups[b]
@@ -423,9 +457,16 @@ fn consolidate(
         let mut members = seed;
         for _ in 0..8 {
             let mut cand: Vec<usize> = qtree
-                .locate_within_distance(x.quaternion(), qr * qr)
+                .locate_within_distance(key(&x, 1.0), 2.0)
                 .map(|p| p.data as usize)
-                .filter(|&k| !assigned[k] && items[k].mirrored == mirrored)
+                .filter(|&k| {
+                    !assigned[k] && items[k].mirrored == mirrored && {
+                        // The rotation test of the quaternion R-tree this replaces.
+                        let (a, b) = (items[k].t.quaternion(), x.quaternion());
+                        let d2 = |s: f64| (0..4).map(|i| (a[i] - s * b[i]).powi(2)).sum::<f64>();
+                        d2(1.0).min(d2(-1.0)) <= qr * qr
+                    }
+                })
                 .collect();
             cand.sort_unstable();
             cand.dedup();
@@ -544,28 +585,59 @@ pub fn cluster(
         (dist(a.translation, b.translation) / tau)
             .max(quat_angle_deg(a.quaternion(), b.quaternion()) / theta)
     };
-    let mut points = Vec::with_capacity(2 * items.len());
+    // Transformations closer than a fifth of the stopping radius start as one cluster: a
+    // grid of that cell size in the 7-D space (quaternions in the hemisphere of their first
+    // non-zero component). Many copies of one feature (a grid of holes) vote the same
+    // transformation thousands of times, and their all-pairs neighbour lists would be
+    // quadratic in the number of matches.
+    let mut cells: std::collections::BTreeMap<(bool, [i64; 7]), Vec<usize>> =
+        std::collections::BTreeMap::new();
     for (k, it) in items.iter().enumerate() {
+        let q = it.t.quaternion();
+        let lead = q.iter().copied().find(|x| x.abs() > 1e-12).unwrap_or(1.0);
+        let f = feat(&it.t, lead.signum());
+        let key = f.map(|x| (x / PREMERGE_CELL).floor() as i64);
+        cells.entry((it.mirrored, key)).or_default().push(k);
+    }
+    let seeds: Vec<Vec<usize>> = cells.into_values().collect();
+    let n = seeds.len();
+    let mut rep: Vec<RigidTransform> = seeds
+        .iter()
+        .map(|s| {
+            if s.len() == 1 {
+                items[s[0]].t
+            } else {
+                let list: Vec<(RigidTransform, f64)> = s
+                    .iter()
+                    .map(|&i| (items[i].t, items[i].member.affinity))
+                    .collect();
+                mean_transform(&list)
+            }
+        })
+        .collect();
+    let seed_mirrored: Vec<bool> = seeds.iter().map(|s| items[s[0]].mirrored).collect();
+    let mut weight: Vec<f64> = seeds
+        .iter()
+        .map(|s| s.iter().map(|&i| items[i].member.affinity).sum())
+        .collect();
+    let mut points = Vec::with_capacity(2 * n);
+    for (k, t) in rep.iter().enumerate() {
+        points.push(rstar::primitives::GeomWithData::new(feat(t, 1.0), k as u32));
         points.push(rstar::primitives::GeomWithData::new(
-            feat(&it.t, 1.0),
-            k as u32,
-        ));
-        points.push(rstar::primitives::GeomWithData::new(
-            feat(&it.t, -1.0),
+            feat(t, -1.0),
             k as u32,
         ));
     }
     let tree = rstar::RTree::bulk_load(points);
-    let n = items.len();
     let mut nbrs: Vec<BTreeSet<usize>> = vec![BTreeSet::new(); n];
     let mut heap = BinaryHeap::new();
-    for (k, it) in items.iter().enumerate() {
-        for g in tree.locate_within_distance(feat(&it.t, 1.0), 2.0) {
+    for k in 0..n {
+        for g in tree.locate_within_distance(feat(&rep[k], 1.0), 2.0) {
             let o = g.data as usize;
-            if o <= k || items[o].mirrored != it.mirrored {
+            if o <= k || seed_mirrored[o] != seed_mirrored[k] {
                 continue;
             }
-            let d = distance(&it.t, &items[o].t);
+            let d = distance(&rep[k], &rep[o]);
             if d <= 1.0 && nbrs[k].insert(o) {
                 nbrs[o].insert(k);
                 heap.push(Reverse((Key(d), k, o, 0u32, 0u32)));
@@ -575,9 +647,7 @@ pub fn cluster(
     // Lazy agglomeration: stale heap entries (a cluster changed since) are re-evaluated.
     let mut alive = vec![true; n];
     let mut version = vec![0u32; n];
-    let mut rep: Vec<RigidTransform> = items.iter().map(|i| i.t).collect();
-    let mut weight: Vec<f64> = items.iter().map(|i| i.member.affinity).collect();
-    let mut members: Vec<Vec<usize>> = (0..n).map(|k| vec![k]).collect();
+    let mut members: Vec<Vec<usize>> = seeds;
     while let Some(Reverse((Key(d), a, b, va, vb))) = heap.pop() {
         if !alive[a] || !alive[b] {
             continue;
@@ -699,7 +769,7 @@ pub struct ClusterNode;
 impl NodeKind for ClusterNode {
     type Params = ClusterParams;
     const KIND: &'static str = "symmetry.cluster";
-    const VERSION: u32 = 1;
+    const VERSION: u32 = 2;
     const DOC: &'static str = "Global transformation space voting (thesis §3.2.3): agglomerative \
         clustering of the curve-pair transformations (and their inverses), fusing the closest \
         clusters into their weighted average until the next distance exceeds the maximal error \

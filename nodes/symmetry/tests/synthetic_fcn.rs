@@ -218,3 +218,64 @@ fn sequential_and_parallel_agree_bit_for_bit() {
     let cb = cluster(&b, &ClusterParams::default(), Par::Rayon).unwrap();
     assert_eq!(ca, cb);
 }
+
+/// Many copies of one feature: 40 000 matches between circles on a 100 × 100 grid, all with
+/// one of four grid steps (and tiny jitter). Every match of a step must land in that step's
+/// cluster (the merging of near-equal transformations and the candidate index must not lose
+/// or split any), and the clustering must not go quadratic in the matches.
+#[test]
+fn many_equal_translations_cluster_by_step() {
+    use crestflow_nodes_symmetry::blast::{CurveMatch, CurveMatches};
+    use crestflow_nodes_symmetry::transform::RigidTransform;
+    let h = 0.01;
+    let circle = |c: V3| -> Vec<V3> {
+        (0..8)
+            .map(|i| {
+                let a = std::f64::consts::TAU * i as f64 / 8.0;
+                [c[0] + 0.1 * a.cos(), c[1] + 0.1 * a.sin(), c[2]]
+            })
+            .collect()
+    };
+    let steps: [V3; 4] = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [1.0, 1.0, 0.0], [1.0, -1.0, 0.0]];
+    let mut matches = Vec::new();
+    let mut jitter = 0u64;
+    for i in 0..100u32 {
+        for j in 0..100u32 {
+            let c = [i as f64, j as f64, 0.0];
+            for s in steps {
+                jitter = jitter.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                let e = ((jitter >> 40) as f64 / (1u64 << 24) as f64 - 0.5) * 0.02 * h;
+                let t = [s[0] + e, s[1] - e, 0.0];
+                let src = circle(c);
+                let dst: Vec<V3> = src.iter().map(|p| [p[0] + t[0], p[1] + t[1], p[2]]).collect();
+                matches.push(CurveMatch {
+                    curve_a: i * 100 + j,
+                    curve_b: i * 100 + j + 1,
+                    mirrored: false,
+                    transform: RigidTransform::translation(t),
+                    votes: 10.0,
+                    matched_length: 0.6,
+                    mean_distance: 0.0,
+                    affinity: 0.6,
+                    correspondences: src.into_iter().zip(dst).map(|(p, q)| [p, q]).collect(),
+                });
+            }
+        }
+    }
+    let matches = CurveMatches {
+        unit: h,
+        matches,
+        ..Default::default()
+    };
+    let c = cluster(&matches, &ClusterParams::default(), Par::Rayon).expect("cluster");
+    // Each step and its inverse: eight clusters of 10 000 members each.
+    assert_eq!(c.clusters.len(), 8, "{} clusters", c.clusters.len());
+    for cl in &c.clusters {
+        assert_eq!(cl.members.len(), 10_000);
+        let t = cl.transform.translation;
+        let on_step = steps.iter().any(|s| {
+            dist(t, *s) < 1e-3 || dist(t, [-s[0], -s[1], -s[2]]) < 1e-3
+        });
+        assert!(on_step, "{t:?}");
+    }
+}
