@@ -8,6 +8,10 @@
 //! Each curve vertex is a mesh vertex (`SurfacePoint::Vertex`); its strength is the largest
 //! dihedral angle (radians) of its feature edges, π/2 on boundaries, so sharper creases weigh
 //! more in the length-weighted averages of the symmetry and selection nodes.
+//!
+//! Optionally (`join_angle_deg`) chains are joined through corners along the straightest
+//! continuation, as a ridge tracer continues through a junction: an octagonal nut's creases
+//! are then two octagon loops per end and bent vertical curves, not 56 straight segments.
 
 use serde::{Deserialize, Serialize};
 
@@ -37,6 +41,11 @@ pub struct SharpEdgesParams {
     pub boundaries: bool,
     /// Curves with fewer mesh edges than this are left out (default 1, range 1..=1000000).
     pub min_edges: usize,
+    /// At a corner, two chains that continue each other by a turn below this angle (degrees)
+    /// become one curve, the straightest pairs first (default 0: every chain its own curve;
+    /// range [0, 180)). Straight creases fix a rigid transformation only up to a spin about
+    /// themselves; joined through their corners (an octagon's outline) they fix it fully.
+    pub join_angle_deg: f64,
 }
 
 impl Default for SharpEdgesParams {
@@ -46,6 +55,7 @@ impl Default for SharpEdgesParams {
             corner_angle_deg: 60.0,
             boundaries: true,
             min_edges: 1,
+            join_angle_deg: 0.0,
         }
     }
 }
@@ -62,6 +72,7 @@ impl Validate for SharpEdgesParams {
             180.0,
         );
         check_range(&mut v, "min_edges", self.min_edges, 1, 1_000_000);
+        check_range(&mut v, "join_angle_deg", self.join_angle_deg, 0.0, 179.999);
         v
     }
 }
@@ -166,13 +177,24 @@ pub fn sharp_edges(
         }
         net_index[v as usize]
     };
+    let mut curves: Vec<(Vec<u32>, bool)> = chain_edges
+        .iter()
+        .filter(|edges| !edges.is_empty())
+        .map(|edges| chain_vertex_order(&topo.edges, edges))
+        .collect();
+    let mut joins = 0usize;
+    if params.join_angle_deg > 0.0 {
+        let before = curves.len();
+        curves = join_at_corners(curves, &mesh.positions, params.join_angle_deg);
+        joins = before - curves.len();
+    }
     let mut dropped = 0usize;
-    for edges in &chain_edges {
-        if edges.len() < params.min_edges {
+    for (order, closed) in curves {
+        let edge_count = order.len() - usize::from(!closed);
+        if edge_count < params.min_edges {
             dropped += 1;
             continue;
         }
-        let (order, closed) = chain_vertex_order(&topo.edges, edges);
         let vertices: Vec<u32> = order.iter().map(|&v| add_vertex(&mut net, v)).collect();
         net.curves.push(FeatureCurve {
             vertices,
@@ -189,7 +211,8 @@ pub fn sharp_edges(
             "boundary_edges",
             if params.boundaries { fe.boundary } else { 0 },
         )
-        .set("corners", chains.is_corner.iter().filter(|&&c| c).count());
+        .set("corners", chains.is_corner.iter().filter(|&&c| c).count())
+        .set("joins", joins);
     Ok(SharpEdgesOutput {
         network: net,
         report,
@@ -231,19 +254,130 @@ fn chain_vertex_order(all_edges: &[[u32; 2]], edges: &[u32]) -> (Vec<u32>, bool)
     (order, closed)
 }
 
+/// Joins open chains end to end at shared corners. At each corner the pairs of chain ends
+/// meeting there are taken straightest first (turn = angle between the incoming and the
+/// outgoing direction of the first edges), each end at most once, while the turn is below
+/// `max_turn_deg`; then the linked chains are concatenated into curves (a cycle of links
+/// into a closed curve). Closed chains are kept as they are. The order of the result is
+/// fixed by the chain order, so it does not depend on anything but the input.
+fn join_at_corners(
+    curves: Vec<(Vec<u32>, bool)>,
+    positions: &[V3],
+    max_turn_deg: f64,
+) -> Vec<(Vec<u32>, bool)> {
+    use std::collections::BTreeMap;
+    // End k of chain c is 2c + k (k = 0 its first vertex, 1 its last).
+    let mut at: BTreeMap<u32, Vec<usize>> = BTreeMap::new();
+    for (c, (order, closed)) in curves.iter().enumerate() {
+        if !closed && order.len() >= 2 {
+            at.entry(order[0]).or_default().push(2 * c);
+            at.entry(order[order.len() - 1])
+                .or_default()
+                .push(2 * c + 1);
+        }
+    }
+    // Unit direction from an end's vertex into its chain.
+    let inward = |end: usize| -> V3 {
+        let order = &curves[end / 2].0;
+        let (v, w) = if end.is_multiple_of(2) {
+            (order[0], order[1])
+        } else {
+            (order[order.len() - 1], order[order.len() - 2])
+        };
+        vec3::normalize(vec3::sub(positions[w as usize], positions[v as usize]))
+    };
+    let cos_max = max_turn_deg.to_radians().cos();
+    let mut link = vec![usize::MAX; 2 * curves.len()];
+    for ends in at.values() {
+        let mut pairs = Vec::new();
+        for (i, &a) in ends.iter().enumerate() {
+            for &b in &ends[i + 1..] {
+                // Going in along a and out along b: straight when the inward directions
+                // are opposite, so the turn's cosine is −dot.
+                let cos_turn = -vec3::dot(inward(a), inward(b));
+                if cos_turn > cos_max {
+                    pairs.push((cos_turn, a, b));
+                }
+            }
+        }
+        pairs.sort_by(|x, y| y.0.total_cmp(&x.0).then((x.1, x.2).cmp(&(y.1, y.2))));
+        for (_, a, b) in pairs {
+            if link[a] == usize::MAX && link[b] == usize::MAX {
+                link[a] = b;
+                link[b] = a;
+            }
+        }
+    }
+    let mut used = vec![false; curves.len()];
+    let mut out = Vec::new();
+    // Walks from chain end `start` (which enters the chain) through the links.
+    let walk = |start: usize, used: &mut Vec<bool>| -> (Vec<u32>, bool) {
+        let mut order: Vec<u32> = Vec::new();
+        let mut end = start;
+        loop {
+            let c = end / 2;
+            used[c] = true;
+            let mut part = curves[c].0.clone();
+            if end % 2 == 1 {
+                part.reverse();
+            }
+            // The shared corner is the last vertex so far and the first of `part`.
+            let skip = usize::from(!order.is_empty());
+            order.extend_from_slice(&part[skip..]);
+            let exit = end ^ 1;
+            let next = link[exit];
+            if next == usize::MAX {
+                return (order, false);
+            }
+            if next == start {
+                order.pop(); // back at the first vertex: a closed curve
+                return (order, true);
+            }
+            end = next;
+        }
+    };
+    for c in 0..curves.len() {
+        if used[c] {
+            continue;
+        }
+        if curves[c].1 || curves[c].0.len() < 2 {
+            used[c] = true;
+            out.push(curves[c].clone());
+            continue;
+        }
+        // Start at a free end of the path this chain lies on; if there is none, it is a cycle.
+        let mut end = 2 * c;
+        let mut free = None;
+        for _ in 0..=2 * curves.len() {
+            if link[end] == usize::MAX {
+                free = Some(end);
+                break;
+            }
+            end = link[end] ^ 1;
+            if end == 2 * c {
+                break;
+            }
+        }
+        out.push(walk(free.unwrap_or(2 * c), &mut used));
+    }
+    out
+}
+
 /// Node wrapper of [`sharp_edges`].
 pub struct SharpEdgesNode;
 
 impl NodeKind for SharpEdgesNode {
     type Params = SharpEdgesParams;
     const KIND: &'static str = "remesh.sharp_edges";
-    const VERSION: u32 = 1;
+    const VERSION: u32 = 2;
     const DOC: &'static str = "Sharp edges (dihedral angle above angle_deg) and boundaries of \
         a mesh as a feature curve network, split at corners (other than two feature edges, or \
         a turn above corner_angle_deg) into the chains remesh.isotropic keeps: the features \
-        of CAD meshes, where curvature ridges degenerate at the creases. Vertex strength is \
-        the sharpest dihedral angle at the vertex (radians). Outputs the network and a Report \
-        (curves, curves_dropped_short, sharp_edges, boundary_edges, corners).";
+        of CAD meshes, where curvature ridges degenerate at the creases. With join_angle_deg \
+        above 0, chains meeting at a corner are joined into one curve, straightest pairs \
+        first, while they turn by less than that angle. Vertex strength is the sharpest \
+        dihedral angle at the vertex (radians). Outputs the network and a Report (curves, \
+        curves_dropped_short, sharp_edges, boundary_edges, corners, joins).";
 
     fn inputs() -> Vec<Port> {
         vec![Port::of::<TriMesh>("mesh", "the surface")]

@@ -138,3 +138,84 @@ fn bad_meshes_are_named() {
     .validate();
     assert_eq!(issues.len(), 2, "{issues:?}");
 }
+
+#[test]
+fn joining_through_corners_closes_the_prism_rims() {
+    // At each rim vertex of a hexagonal prism the rim turns by 60° and the vertical edge
+    // leaves at 90°: below a join angle of 75° the rim chains join into two closed hexagons
+    // and the verticals stay single edges; below 45° nothing joins.
+    let params = |join| SharpEdgesParams {
+        join_angle_deg: join,
+        ..Default::default()
+    };
+    let out = sharp_edges(&prism(6), &params(75.0)).unwrap();
+    assert_eq!(out.report.num("joins"), Some(10.0));
+    assert_eq!(out.network.curves.len(), 8);
+    let closed: Vec<_> = out.network.curves.iter().filter(|c| c.closed).collect();
+    assert_eq!(closed.len(), 2);
+    for c in &closed {
+        assert_eq!(c.vertices.len(), 6);
+        // A loop visits each of its six rim vertices once, all at one height.
+        let z: Vec<f64> = c
+            .vertices
+            .iter()
+            .map(|&v| out.network.vertices[v as usize].position[2])
+            .collect();
+        assert!(z.iter().all(|&h| h == z[0]));
+        let mut vs = c.vertices.clone();
+        vs.sort_unstable();
+        vs.dedup();
+        assert_eq!(vs.len(), 6);
+    }
+    assert_eq!(
+        out.network
+            .curves
+            .iter()
+            .filter(|c| !c.closed && c.vertices.len() == 2)
+            .count(),
+        6
+    );
+    let none = sharp_edges(&prism(6), &params(45.0)).unwrap();
+    assert_eq!(none.network.curves.len(), 18);
+    assert_eq!(none.report.num("joins"), Some(0.0));
+    // Above 90° the straightest pairs still come first: rims pair (60°) before a rim and a
+    // vertical (90°), and with three ends at a vertex one stays free.
+    let wide = sharp_edges(&prism(6), &params(120.0)).unwrap();
+    assert_eq!(wide.network.curves.len(), 8);
+}
+
+#[test]
+fn joined_open_path_runs_corner_to_corner() {
+    // Chains along the x axis 0-1-2, 3-2 (stored reversed), 3-5, and a branch 2-4 along y.
+    // Joined below 45°: one open curve 0-1-2-3-5 (the reversed chain turned round), the
+    // branch alone.
+    let pos: Vec<V3> = vec![
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [2.0, 0.0, 0.0],
+        [3.0, 0.0, 0.0],
+        [2.0, 1.0, 0.0],
+        [4.0, 0.1, 0.0],
+    ];
+    let chains = vec![
+        (vec![0, 1, 2], false),
+        (vec![3, 2], false),
+        (vec![2, 4], false),
+        (vec![3, 5], false),
+    ];
+    let joined = join_at_corners(chains.clone(), &pos, 45.0);
+    assert_eq!(
+        joined,
+        vec![(vec![0, 1, 2, 3, 5], false), (vec![2, 4], false)]
+    );
+    // Below 5° the 5.7° bend at vertex 3 stays a break.
+    let joined = join_at_corners(chains, &pos, 5.0);
+    assert_eq!(
+        joined,
+        vec![
+            (vec![0, 1, 2, 3], false),
+            (vec![2, 4], false),
+            (vec![3, 5], false)
+        ]
+    );
+}

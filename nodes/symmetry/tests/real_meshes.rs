@@ -41,9 +41,12 @@ fn cad_chain(name: &str) -> (Generator, usize) {
     )
     .expect("remesh")
     .mesh;
-    let net = sharp_edges(&remeshed, &SharpEdgesParams::default())
-        .expect("sharp edges")
-        .network;
+    // As graphs/symmetry-cad.ron: chains joined through corners below 60°.
+    let sharp = SharpEdgesParams {
+        join_angle_deg: 60.0,
+        ..Default::default()
+    };
+    let net = sharp_edges(&remeshed, &sharp).expect("sharp edges").network;
     let m = blast(&net, &remeshed, &BlastParams::default(), Par::Rayon).expect("blast");
     let c = cluster(&m, &ClusterParams::default(), Par::Rayon).expect("cluster");
     let o = orbits(&c, &OrbitParams::default(), Par::Rayon).expect("orbits");
@@ -51,11 +54,15 @@ fn cad_chain(name: &str) -> (Generator, usize) {
     (best.generator.clone(), best.instances)
 }
 
-/// The pinion has 10 teeth; the turbine's flange 10 bolt holes (counted on the meshes by
-/// rotating surface samples about the symmetry axis).
+/// The pinion has 10 teeth, the turbine's flange 10 bolt holes, the nut is an octagon
+/// (counted on the meshes by rotating surface samples about the symmetry axis).
 #[test]
-fn cad_chain_finds_the_rotation_orders_of_pinion_and_turbine() {
-    for name in ["cad/cgal_pinion.off", "cad/cgal_turbine.off"] {
+fn cad_chain_finds_the_rotation_orders_of_pinion_turbine_and_nut() {
+    for (name, n) in [
+        ("cad/cgal_pinion.off", 10),
+        ("cad/cgal_turbine.off", 10),
+        ("cad/pyvista_nut.ply", 8),
+    ] {
         let (generator, instances) = cad_chain(name);
         let Generator::Rotation {
             angle_deg, order, ..
@@ -63,8 +70,11 @@ fn cad_chain_finds_the_rotation_orders_of_pinion_and_turbine() {
         else {
             panic!("{name}: strongest orbit {generator:?}");
         };
-        assert!((angle_deg - 36.0).abs() < 1.0, "{name}: {angle_deg}°");
-        assert_eq!((order, instances), (10, 10), "{name}");
+        assert!(
+            (angle_deg - 360.0 / n as f64).abs() < 1.0,
+            "{name}: {angle_deg}°"
+        );
+        assert_eq!((order as usize, instances), (n, n), "{name}");
     }
 }
 

@@ -236,18 +236,28 @@ fn many_equal_translations_cluster_by_step() {
             })
             .collect()
     };
-    let steps: [V3; 4] = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [1.0, 1.0, 0.0], [1.0, -1.0, 0.0]];
+    let steps: [V3; 4] = [
+        [1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [1.0, 1.0, 0.0],
+        [1.0, -1.0, 0.0],
+    ];
     let mut matches = Vec::new();
     let mut jitter = 0u64;
     for i in 0..100u32 {
         for j in 0..100u32 {
             let c = [i as f64, j as f64, 0.0];
             for s in steps {
-                jitter = jitter.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                jitter = jitter
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
                 let e = ((jitter >> 40) as f64 / (1u64 << 24) as f64 - 0.5) * 0.02 * h;
                 let t = [s[0] + e, s[1] - e, 0.0];
                 let src = circle(c);
-                let dst: Vec<V3> = src.iter().map(|p| [p[0] + t[0], p[1] + t[1], p[2]]).collect();
+                let dst: Vec<V3> = src
+                    .iter()
+                    .map(|p| [p[0] + t[0], p[1] + t[1], p[2]])
+                    .collect();
                 matches.push(CurveMatch {
                     curve_a: i * 100 + j,
                     curve_b: i * 100 + j + 1,
@@ -273,9 +283,9 @@ fn many_equal_translations_cluster_by_step() {
     for cl in &c.clusters {
         assert_eq!(cl.members.len(), 10_000);
         let t = cl.transform.translation;
-        let on_step = steps.iter().any(|s| {
-            dist(t, *s) < 1e-3 || dist(t, [-s[0], -s[1], -s[2]]) < 1e-3
-        });
+        let on_step = steps
+            .iter()
+            .any(|s| dist(t, *s) < 1e-3 || dist(t, [-s[0], -s[1], -s[2]]) < 1e-3);
         assert!(on_step, "{t:?}");
     }
 }
