@@ -90,6 +90,46 @@ impl Chain {
         self.wrap(0.5 * (lo + hi))
     }
 
+    /// The parameter of the point strictly inside the stretch between `a` and `b` where the
+    /// chain turns most (`None` when no point lies inside).
+    pub fn sharpest_between(&self, a: f64, b: f64) -> Option<f64> {
+        let (lo, hi) = self.interval(a, b);
+        let n = self.pts.len();
+        let t = self.total();
+        let laps = if self.closed { 2 } else { 1 };
+        // Cosine of the turn at point i (1 = straight); a loop's first and last point are one.
+        let cos_turn = |i: usize| -> Option<f64> {
+            let (prev, next) = if i == 0 || i == n - 1 {
+                if !self.closed || n < 3 {
+                    return None;
+                }
+                (n - 2, 1)
+            } else {
+                (i - 1, i + 1)
+            };
+            let d0 = vec3::sub(self.pts[i], self.pts[prev]);
+            let d1 = vec3::sub(self.pts[next], self.pts[i]);
+            let l = vec3::norm(d0) * vec3::norm(d1);
+            (l > 0.0).then(|| vec3::dot(d0, d1) / l)
+        };
+        let mut best: Option<(f64, f64)> = None;
+        for lap in 0..laps {
+            let off = lap as f64 * t;
+            let start = self.cum.partition_point(|&c| c + off <= lo);
+            for i in start..n {
+                if self.cum[i] + off >= hi {
+                    break;
+                }
+                if let Some(c) = cos_turn(i) {
+                    if best.is_none_or(|(bc, _)| c < bc) {
+                        best = Some((c, self.wrap(self.cum[i] + off)));
+                    }
+                }
+            }
+        }
+        best.map(|(_, s)| s)
+    }
+
     /// Largest distance from the chain's points strictly inside the stretch between `a` and
     /// `b` to the segment [pa, pb].
     pub fn deviation(&self, a: f64, b: f64, pa: V3, pb: V3) -> f64 {

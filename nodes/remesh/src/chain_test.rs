@@ -86,3 +86,27 @@ fn edge_capacity_is_the_longest_straight_chord_through_each_point() {
     let h = sq.edge_capacity(0.1, 10.0);
     assert!(h.iter().all(|&x| x == 1.0), "{h:?}");
 }
+
+#[test]
+fn sharpest_between_picks_the_largest_turn_inside_the_stretch() {
+    // An open polyline turning by 10° at x = 1, by 40° at x = 2, by 80° at x = 3.
+    let mut pts = vec![[0.0, 0.0, 0.0]];
+    let mut dir: f64 = 0.0;
+    for turn in [10.0f64, 40.0, 80.0, 0.0] {
+        let p: V3 = pts[pts.len() - 1];
+        pts.push([p[0] + dir.cos(), p[1] + dir.sin(), 0.0]);
+        dir += turn.to_radians();
+    }
+    let ch = Chain::new(pts, false);
+    // Points 1..=3 at arc lengths 1, 2, 3.
+    assert_eq!(ch.sharpest_between(0.5, 2.5), Some(2.0));
+    assert_eq!(ch.sharpest_between(2.5, 0.5), Some(2.0));
+    assert_eq!(ch.sharpest_between(0.5, 3.5), Some(3.0));
+    assert_eq!(ch.sharpest_between(0.5, 1.5), Some(1.0));
+    // The ends of the stretch are not inside it; nothing lies strictly inside (1, 2).
+    assert_eq!(ch.sharpest_between(1.0, 2.0), None);
+    // On a loop (a square) the stretch may wrap past the first point, which is a corner too.
+    let sq = square();
+    assert_eq!(sq.sharpest_between(3.5, 0.5), Some(0.0));
+    assert_eq!(sq.sharpest_between(1.5, 2.5), Some(2.0));
+}

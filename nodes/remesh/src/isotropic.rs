@@ -1136,7 +1136,15 @@ impl State<'_> {
                 ch.deviation(sx, t, px, p) <= self.tol && ch.deviation(t, sy, p, py) <= self.tol
             };
             let t = ch.middle(sx, sy);
-            if ok(t) {
+            // Else onto the bend between the neighbours: two vertices that straddle a bend
+            // cannot merge (their edge cannot cut it), and they would stay a short edge
+            // with a needle triangle on each side.
+            let to = if ok(t) {
+                Some(t)
+            } else {
+                ch.sharpest_between(sx, sy).filter(|&k| ok(k))
+            };
+            if let Some(t) = to {
                 self.he.set_position(v, ch.point_at(t));
                 self.param[v as usize] = t;
             } else {
@@ -1184,7 +1192,7 @@ pub struct IsotropicNode;
 impl NodeKind for IsotropicNode {
     type Params = IsotropicParams;
     const KIND: &'static str = "remesh.isotropic";
-    const VERSION: u32 = 4;
+    const VERSION: u32 = 5;
     const DOC: &'static str = "Isotropic remeshing at a target edge length (Botsch & Kobbelt \
         2004, thesis §5.1.1): splits > 4/3 L, collapses < 4/5 L, valence-improving flips, \
         tangential relaxation and projection onto the input surface, for `iterations` rounds. \
