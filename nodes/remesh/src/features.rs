@@ -541,10 +541,22 @@ pub fn build_chains(mesh: &TriMesh, fe: &FeatureEdges, corner_angle_deg: f64) ->
             // The network's own geometry: the chain's ends, and the network vertices in
             // between; each path vertex between two of them gets the parameter of its closest
             // point on the segment joining them (never decreasing along the chain).
-            let mut pts = vec![p(vs[0])];
+            // A loop starts at a vertex of the network where it can (see the walks below):
+            // then its first and last reference point is that network vertex, not the mesh
+            // vertex standing in for it, which would add a short segment and a false bend.
+            let first = if vs[last] == vs[0] && !is_corner[vs[0] as usize] {
+                fe.anchor
+                    .get(vs[0] as usize)
+                    .copied()
+                    .flatten()
+                    .map_or(p(vs[0]), |a| a.0)
+            } else {
+                p(vs[0])
+            };
+            let mut pts = vec![first];
             for (i, &w) in vs.iter().enumerate().skip(1) {
                 let anchor = if i == last {
-                    Some(p(w))
+                    Some(if w == vs[0] { first } else { p(w) })
                 } else {
                     fe.anchor.get(w as usize).copied().flatten().map(|a| a.0)
                 };
@@ -619,11 +631,19 @@ pub fn build_chains(mesh: &TriMesh, fe: &FeatureEdges, corner_angle_deg: f64) ->
             }
         }
     }
-    for v in 0..nv as u32 {
-        if !is_corner[v as usize] && inc[v as usize].len() == 2 {
-            let e = inc[v as usize][0];
-            if edge_chain[e as usize] == u32::MAX {
-                walk(v, e, &mut edge_chain, &mut vertex_chain, &mut vertex_param);
+    // Loops: those through a network vertex start at one (the first in vertex order), the
+    // others at their first vertex.
+    for anchored in [true, false] {
+        for v in 0..nv as u32 {
+            let has_anchor = fe.anchor.get(v as usize).is_some_and(|a| a.is_some());
+            if anchored && !has_anchor {
+                continue;
+            }
+            if !is_corner[v as usize] && inc[v as usize].len() == 2 {
+                let e = inc[v as usize][0];
+                if edge_chain[e as usize] == u32::MAX {
+                    walk(v, e, &mut edge_chain, &mut vertex_chain, &mut vertex_param);
+                }
             }
         }
     }

@@ -50,3 +50,64 @@ fn strokes_run_across_curves_that_meet_end_to_end() {
     };
     assert_eq!(strokes(&net), vec![vec![0, 1, 2, 3], vec![4, 5, 6, 4]]);
 }
+
+#[test]
+fn a_curve_loop_is_the_networks_own_polygon() {
+    // A 21 × 21 grid on the unit square and a closed curve: a square whose vertices lie off
+    // the grid vertices, its edge path on grid lines. With a corner angle above its 90°
+    // turns it is one loop, whose reference polyline must be the network's own square, the
+    // first point included: the mesh vertex standing in for the start would add a short
+    // segment and a false bend there.
+    let n = 20u32;
+    let mut pos = Vec::new();
+    for j in 0..=n {
+        for i in 0..=n {
+            pos.push([i as f64 / n as f64, j as f64 / n as f64, 0.0]);
+        }
+    }
+    let mut tri = Vec::new();
+    for j in 0..n {
+        for i in 0..n {
+            let v = j * (n + 1) + i;
+            tri.push([v, v + 1, v + n + 2]);
+            tri.push([v, v + n + 2, v + n + 1]);
+        }
+    }
+    let mesh = TriMesh::new(pos, tri);
+    let square: Vec<V3> = vec![
+        [0.213, 0.207, 0.0],
+        [0.813, 0.207, 0.0],
+        [0.813, 0.807, 0.0],
+        [0.213, 0.807, 0.0],
+    ];
+    let net = FeatureCurveNetwork {
+        vertices: square
+            .iter()
+            .map(|&p| FcnVertex {
+                position: p,
+                location: SurfacePoint::Free,
+                strength: 1.0,
+            })
+            .collect(),
+        curves: vec![FeatureCurve {
+            vertices: (0..4).collect(),
+            closed: true,
+            label: CurveLabel::Other,
+        }],
+    };
+    let proj = Projector::new(&mesh);
+    let fe = mark_features(&mesh, None, Some(&net), &proj).unwrap();
+    let chains = build_chains(&mesh, &fe, 100.0);
+    // Two loops: the grid's boundary (boundary edges are features) and the curve.
+    assert_eq!(chains.points.len(), 2);
+    let c = (0..2)
+        .find(|&c| chains.from_curves[c])
+        .expect("the curve's chain");
+    assert!(chains.closed[c] && !chains.from_curves[1 - c]);
+    let pts = &chains.points[c];
+    assert_eq!(pts.len(), 5, "{pts:?}");
+    for p in pts {
+        assert!(square.contains(p), "{p:?} is not a vertex of the network");
+    }
+    assert_eq!(pts[0], pts[4]);
+}
