@@ -137,6 +137,16 @@ fn bad_meshes_are_named() {
     }
     .validate();
     assert_eq!(issues.len(), 2, "{issues:?}");
+    // A join angle of 180° would join a chain to its own reversal: out of range, named.
+    for join in [-1.0, 180.0, f64::NAN] {
+        let issues = SharpEdgesParams {
+            join_angle_deg: join,
+            ..Default::default()
+        }
+        .validate();
+        assert_eq!(issues.len(), 1, "{join}: {issues:?}");
+        assert_eq!(issues[0].field, "join_angle_deg");
+    }
 }
 
 #[test]
