@@ -40,6 +40,20 @@ use crate::transform::{fit_rigid, mean_transform, quat_angle_deg, RigidTransform
 /// transformations before the agglomeration.
 const PREMERGE_CELL: f64 = 0.2;
 
+/// A point of the 7-D transformation space: a position in units of `p_unit` and a unit
+/// quaternion (times `sign`, for the q ≡ −q identification) in units of `q_unit`.
+fn scaled_key(p: V3, p_unit: f64, q: [f64; 4], q_unit: f64, sign: f64) -> [f64; 7] {
+    [
+        p[0] / p_unit,
+        p[1] / p_unit,
+        p[2] / p_unit,
+        sign * q[0] / q_unit,
+        sign * q[1] / q_unit,
+        sign * q[2] / q_unit,
+        sign * q[3] / q_unit,
+    ]
+}
+
 /// Parameters of `symmetry.cluster`. Lengths are multiples of the mean edge length h.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -409,18 +423,8 @@ fn consolidate(
     let bound = (e + slack + 2.0 * (0.5 * angle.to_radians()).sin() * reach).max(f64::MIN_POSITIVE);
     // Unit quaternions of rotations δ apart are 2 sin(δ/4) apart.
     let qr = 2.0 * (0.25 * angle.to_radians()).sin();
-    let key = |x: &RigidTransform, sign: f64| -> [f64; 7] {
-        let (p, q) = (x.apply(o), x.quaternion());
-        [
-            p[0] / bound,
-            p[1] / bound,
-            p[2] / bound,
-            sign * q[0] / qr,
-            sign * q[1] / qr,
-            sign * q[2] / qr,
-            sign * q[3] / qr,
-        ]
-    };
+    let key =
+        |x: &RigidTransform, sign: f64| scaled_key(x.apply(o), bound, x.quaternion(), qr, sign);
     let mut qpts = Vec::with_capacity(2 * n);
     for (k, it) in items.iter().enumerate() {
         qpts.push(rstar::primitives::GeomWithData::new(
@@ -568,19 +572,8 @@ pub fn cluster(
         ));
     }
     let qs = 0.5 * theta.to_radians();
-    let feat = |t: &RigidTransform, sign: f64| -> [f64; 7] {
-        let q = t.quaternion();
-        let tr = t.translation;
-        [
-            tr[0] / tau,
-            tr[1] / tau,
-            tr[2] / tau,
-            sign * q[0] / qs,
-            sign * q[1] / qs,
-            sign * q[2] / qs,
-            sign * q[3] / qs,
-        ]
-    };
+    let feat =
+        |t: &RigidTransform, sign: f64| scaled_key(t.translation, tau, t.quaternion(), qs, sign);
     let distance = |a: &RigidTransform, b: &RigidTransform| -> f64 {
         (dist(a.translation, b.translation) / tau)
             .max(quat_angle_deg(a.quaternion(), b.quaternion()) / theta)
