@@ -39,7 +39,8 @@
 //! a corner; corners (see [`crate::features`]) never move and are never removed; other feature
 //! vertices slide along their chain (the arc-length parametrised polyline of input feature
 //! edges, [`crate::chain`]; for a chain of curve edges, the network's own polyline, onto which
-//! its vertices move) to the middle of their two chain neighbours; split feature edges
+//! its vertices move) to the middle of their two chain neighbours, or, where that would cut
+//! a bend, onto the sharpest bend between them; split feature edges
 //! get their new vertex at the middle of their stretch of chain. Every output feature edge
 //! stays within `feature_tolerance` · L of the stretch of chain it replaces: a slide or a
 //! collapse that would cut a bend of the chain is not made, so the bends of a feature (and
