@@ -55,6 +55,29 @@ pub struct FeatureCurveNetwork {
 }
 
 impl FeatureCurveNetwork {
+    /// A network of polylines over points not tied to a mesh (`closed` per curve; strength 1,
+    /// label `Other`): hand-made networks such as sketches and test fixtures.
+    pub fn from_polylines(points: &[V3], curves: &[(&[u32], bool)]) -> FeatureCurveNetwork {
+        FeatureCurveNetwork {
+            vertices: points
+                .iter()
+                .map(|&p| FcnVertex {
+                    position: p,
+                    location: SurfacePoint::Free,
+                    strength: 1.0,
+                })
+                .collect(),
+            curves: curves
+                .iter()
+                .map(|&(v, closed)| FeatureCurve {
+                    vertices: v.to_vec(),
+                    closed,
+                    label: CurveLabel::Other,
+                })
+                .collect(),
+        }
+    }
+
     /// The edges of curve `c` as vertex index pairs (including the closing edge of a loop).
     pub fn curve_edges(&self, c: usize) -> Vec<(u32, u32)> {
         let curve = &self.curves[c];

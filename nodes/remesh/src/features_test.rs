@@ -80,21 +80,7 @@ fn a_curve_loop_is_the_networks_own_polygon() {
         [0.813, 0.807, 0.0],
         [0.213, 0.807, 0.0],
     ];
-    let net = FeatureCurveNetwork {
-        vertices: square
-            .iter()
-            .map(|&p| FcnVertex {
-                position: p,
-                location: SurfacePoint::Free,
-                strength: 1.0,
-            })
-            .collect(),
-        curves: vec![FeatureCurve {
-            vertices: (0..4).collect(),
-            closed: true,
-            label: CurveLabel::Other,
-        }],
-    };
+    let net = FeatureCurveNetwork::from_polylines(&square, &[(&[0, 1, 2, 3], true)]);
     let proj = Projector::new(&mesh);
     let fe = mark_features(&mesh, None, Some(&net), &proj).unwrap();
     let chains = build_chains(&mesh, &fe, 100.0);

@@ -5,30 +5,11 @@ use crate::conform::ScaleError;
 use crate::network::NetworkError;
 use crestflow_flow::Par;
 use crestflow_geom::vec3::V3;
-use crestflow_geom::{
-    CurveLabel, FcnVertex, FeatureCurve, FeatureCurveNetwork, SurfacePoint, TriMesh,
-};
+use crestflow_geom::{FeatureCurveNetwork, TriMesh};
 
 /// A network of polylines (`closed` per curve) over the given points.
 pub(crate) fn network(points: &[V3], curves: &[(&[u32], bool)]) -> FeatureCurveNetwork {
-    FeatureCurveNetwork {
-        vertices: points
-            .iter()
-            .map(|&p| FcnVertex {
-                position: p,
-                location: SurfacePoint::Free,
-                strength: 1.0,
-            })
-            .collect(),
-        curves: curves
-            .iter()
-            .map(|&(v, closed)| FeatureCurve {
-                vertices: v.to_vec(),
-                closed,
-                label: CurveLabel::Other,
-            })
-            .collect(),
-    }
+    FeatureCurveNetwork::from_polylines(points, curves)
 }
 
 fn run(net: &FeatureCurveNetwork, aspect: f64) -> CheckResult {
