@@ -27,7 +27,6 @@
 //! [`HeatSolver`] factorises both matrices once; [`HeatSolver::distances`] solves a batch of
 //! sources as one block of right-hand sides. Results are the same bits at any thread count.
 
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crestflow_flow::{
@@ -287,6 +286,9 @@ impl HeatError {
     }
 }
 
+/// Faces whose divergence terms are computed before they are added to their vertices.
+const DIVERGENCE_BLOCK: usize = 64;
+
 /// Factorised operators of the heat method for one mesh, reusable across sources.
 #[derive(Debug, Clone)]
 pub struct HeatSolver {
@@ -490,12 +492,11 @@ impl HeatSolver {
         } else {
             self.heat.solve_many(&mut u, m, par)?;
         }
-        // 2.-3. normalised gradient and its divergence: faces in parallel, each vertex's
-        // sum in face order (the same bits at any thread count).
+        // 2.-3. normalised gradient and its divergence.
         let mut phi = vec![0.0; n * m];
-        let mut terms = vec![[0.0; 3]; self.triangles.len()];
+        let mut scratch = vec![0.0; n];
         for (s, col) in phi.chunks_mut(n).enumerate() {
-            self.divergence(&u[s * n..(s + 1) * n], col, &mut terms, par);
+            self.divergence(&u[s * n..(s + 1) * n], col, &mut scratch, par);
         }
         self.poisson.solve_many(&mut phi, m, par)?;
         // 4. shift per component
@@ -509,52 +510,61 @@ impl HeatSolver {
         v.pop().ok_or(HeatError::NoSources)
     }
 
-    /// `b = ∫ X · ∇ψ_i` for `X = −∇u/|∇u|`, with pinned rows zeroed. The per-face terms are
-    /// computed in parallel into `terms`, then added to `b` in face order (the bits do not
-    /// depend on the thread count).
-    fn divergence(&self, u: &[f64], b: &mut [f64], terms: &mut [[f64; 3]], par: Par) {
-        const CHUNK: usize = 4096;
+    /// `b = ∫ X · ∇ψ_i` for `X = −∇u/|∇u|`, with pinned rows zeroed. Each face's terms are
+    /// added to its vertices as they are computed, in one pass over the faces (no per-face
+    /// array to write and read back). The faces are
+    /// cut into two fixed halves, summed into `b` and `scratch` side by side and then added:
+    /// the same bits at any thread count.
+    fn divergence(&self, u: &[f64], b: &mut [f64], scratch: &mut [f64], par: Par) {
         // b_i = −(K u)_i / |∇u| with K the face's cotangent stiffness matrix and
         // |∇u|² = uᵀ K u / A.
-        let face_terms = |f: usize, out: &mut [f64; 3]| {
-            let t = self.triangles[f];
-            let [c0, c1, c2, inv_area] = self.stiffness[f];
-            let (u0, u1, u2) = (u[t[0] as usize], u[t[1] as usize], u[t[2] as usize]);
-            let (d01, d12, d20) = (u0 - u1, u1 - u2, u2 - u0);
-            let energy = c0 * d12 * d12 + c1 * d20 * d20 + c2 * d01 * d01;
-            let grad_sq = energy * inv_area;
-            *out = if grad_sq > 0.0 && grad_sq.is_finite() {
-                let s = -1.0 / grad_sq.sqrt();
-                [
-                    s * (c2 * d01 - c1 * d20),
-                    s * (c0 * d12 - c2 * d01),
-                    s * (c1 * d20 - c0 * d12),
-                ]
-            } else {
-                [0.0; 3]
-            };
-        };
-        match par {
-            Par::Seq => terms
-                .iter_mut()
-                .enumerate()
-                .for_each(|(f, out)| face_terms(f, out)),
-            Par::Rayon => terms
-                .par_chunks_mut(CHUNK)
-                .enumerate()
-                .for_each(|(c, chunk)| {
-                    for (j, out) in chunk.iter_mut().enumerate() {
-                        face_terms(c * CHUNK + j, out);
+        let accumulate = |faces: std::ops::Range<usize>, out: &mut [f64]| {
+            out.iter_mut().for_each(|x| *x = 0.0);
+            let tris = &self.triangles[faces.clone()];
+            let stiff = &self.stiffness[faces];
+            // Blocks of faces: the square roots and divisions of a block are independent
+            // and overlap; adding each face's terms right away would chain them through
+            // the vertices neighbouring faces share.
+            let mut terms = [[0.0f64; 3]; DIVERGENCE_BLOCK];
+            for (tb, kb) in tris
+                .chunks(DIVERGENCE_BLOCK)
+                .zip(stiff.chunks(DIVERGENCE_BLOCK))
+            {
+                for ((t, &[c0, c1, c2, inv_area]), out) in tb.iter().zip(kb).zip(&mut terms) {
+                    let (u0, u1, u2) = (u[t[0] as usize], u[t[1] as usize], u[t[2] as usize]);
+                    let (d01, d12, d20) = (u0 - u1, u1 - u2, u2 - u0);
+                    let energy = c0 * d12 * d12 + c1 * d20 * d20 + c2 * d01 * d01;
+                    let grad_sq = energy * inv_area;
+                    *out = if grad_sq > 0.0 && grad_sq.is_finite() {
+                        let s = -1.0 / grad_sq.sqrt();
+                        [
+                            s * (c2 * d01 - c1 * d20),
+                            s * (c0 * d12 - c2 * d01),
+                            s * (c1 * d20 - c0 * d12),
+                        ]
+                    } else {
+                        [0.0; 3]
+                    };
+                }
+                for (t, tv) in tb.iter().zip(&terms) {
+                    for k in 0..3 {
+                        out[t[k] as usize] += tv[k];
                     }
-                }),
-        }
-        // In face order: a streaming pass (gathering per vertex would read `terms` at random).
-        b.iter_mut().for_each(|x| *x = 0.0);
-        for (t, tv) in self.triangles.iter().zip(terms.iter()) {
-            for i in 0..3 {
-                b[t[i] as usize] += tv[i];
+                }
+            }
+        };
+        let nf = self.triangles.len();
+        let half = nf / 2;
+        match par {
+            Par::Seq => {
+                accumulate(0..half, b);
+                accumulate(half..nf, scratch);
+            }
+            Par::Rayon => {
+                rayon::join(|| accumulate(0..half, b), || accumulate(half..nf, scratch));
             }
         }
+        b.iter_mut().zip(scratch.iter()).for_each(|(x, y)| *x += y);
         for &p in &self.pins {
             b[p as usize] = 0.0;
         }
