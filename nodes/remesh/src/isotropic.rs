@@ -27,7 +27,11 @@
 //!    through splits and collapses);
 //!
 //! step 4 repeats `smoothing_steps` times per round, step 5 follows the last of them. After
-//! the last round, one more flip sweep (step 3) runs, since relaxation moved the vertices.
+//! the last round, a triangle still below 30° loses its shortest edge when that collapse
+//! raises the smallest angle around it, allowing edges up to 2 L (under the feature rules of
+//! step 2): a vertex left near a corner or a feature, whose collapse every round refused for
+//! an edge just over 4/3 L, goes. Then one more flip sweep (step 3) runs, since relaxation
+//! moved the vertices.
 //!
 //! With `feature_grading` > 0 the target is local: L, except near stretches of feature chain
 //! whose bends only allow shorter edges (their [`Chain::edge_capacity`] under the tolerance),
@@ -394,6 +398,7 @@ fn isotropic_with(
         }
     }
     if params.iterations > 0 {
+        st.collapse_slivers();
         // Relaxation moved the vertices since the last flips: one more flip sweep.
         check()?;
         st.equalize_valences(par);
@@ -808,10 +813,10 @@ impl State<'_> {
     /// No edge longer than 4/3 L may appear at the merged vertex `p`. For a chain vertex only
     /// the chain's own edges count: off-chain edges that grow are split again, while a chain
     /// that keeps short edges would pin thin triangles along the feature.
-    fn lengths_ok(&self, v: u32, p: V3, hp: f64, chain_only: bool) -> bool {
+    fn lengths_ok(&self, v: u32, p: V3, hp: f64, chain_only: bool, stretch2: f64) -> bool {
         let far = |x: u32| {
             let d = vec3::sub(self.he.position(x), p);
-            vec3::dot(d, d) > Self::split_len2(self.size[x as usize], hp)
+            vec3::dot(d, d) > stretch2 * Self::split_len2(self.size[x as usize], hp)
         };
         let mut last = NONE;
         for h in self.he.outgoing(v) {
@@ -836,6 +841,13 @@ impl State<'_> {
     /// Whether collapsing `h` (origin into target) is allowed: feature rules, no long edges,
     /// no two feature edges fused, topology and geometry.
     fn collapse_allowed(&self, h: u32) -> bool {
+        self.collapse_allowed_with(h, 1.0, false)
+    }
+
+    /// [`Self::collapse_allowed`] with new edges up to `stretch2` times the squared split
+    /// length; with `improve`, the smallest angle of every triangle around the edge (the
+    /// removed ones included) must grow instead of staying above 20°.
+    fn collapse_allowed_with(&self, h: u32, stretch2: f64, improve: bool) -> bool {
         let (a, b) = (self.he.from(h), self.he.to(h));
         if !self.removable_into(h, a, b) {
             return false;
@@ -853,8 +865,8 @@ impl State<'_> {
         let p = self.merged_position(h);
         let chain = matches!(self.role[a as usize], Role::Chain(_));
         let hm = self.size[a as usize].min(self.size[b as usize]);
-        self.lengths_ok(a, p, hm, chain)
-            && self.lengths_ok(b, p, hm, chain)
+        self.lengths_ok(a, p, hm, chain, stretch2)
+            && self.lengths_ok(b, p, hm, chain, stretch2)
             && self.collapse_topology_ok(h)
             && {
                 // Smallest angle of the surviving triangles around a and b, before and after
@@ -863,12 +875,77 @@ impl State<'_> {
                 let mut new = -1.0;
                 self.fan_ok(a, b, p, &mut new)
                     && self.fan_ok(b, a, p, &mut new)
-                    && (new <= COS_COLLAPSE_MIN_ANGLE
-                        || new
-                            <= self
-                                .fan_min_angle_cos(a, b)
-                                .max(self.fan_min_angle_cos(b, a)))
+                    && if improve {
+                        new < self
+                            .fan_min_angle_cos(a, NONE)
+                            .max(self.fan_min_angle_cos(b, NONE))
+                    } else {
+                        new <= COS_COLLAPSE_MIN_ANGLE
+                            || new
+                                <= self
+                                    .fan_min_angle_cos(a, b)
+                                    .max(self.fan_min_angle_cos(b, a))
+                    }
             }
+    }
+
+    /// After the rounds: a triangle with an angle below 30° loses its shortest edge when the
+    /// collapse raises the smallest angle around it, even if that leaves an edge up to 2 L
+    /// (split again afterwards). Such slivers remain where a vertex sits close to a corner
+    /// or a feature and every collapse would have made an edge just over 4/3 L.
+    fn collapse_slivers(&mut self) {
+        const STRETCH2: f64 = 1.5 * 1.5;
+        // A vertex takes part in one collapse per sweep; a few sweeps reach neighbouring
+        // slivers.
+        for _ in 0..3 {
+            if !self.collapse_slivers_sweep(STRETCH2) {
+                break;
+            }
+        }
+    }
+
+    fn collapse_slivers_sweep(&mut self, stretch2: f64) -> bool {
+        let mut any = false;
+        let mut touched = vec![false; self.he.n_vertex_slots()];
+        for f in 0..(self.he.n_halfedge_slots() / 3) as u32 {
+            if !self.he.is_face_alive(f) {
+                continue;
+            }
+            let t = self.he.face_vertices(f);
+            if t.iter().any(|&v| touched[v as usize]) {
+                continue;
+            }
+            let [x, y, z] = t.map(|u| self.he.position(u));
+            if min_angle_cos(x, y, z) <= COS_FLIP_MIN_ANGLE {
+                continue;
+            }
+            // The face's shortest side, then either way along it.
+            let h = (0..3u32)
+                .map(|i| 3 * f + i)
+                .min_by(|&p, &q| {
+                    let lp = self.len2(self.he.from(p), self.he.to(p));
+                    let lq = self.len2(self.he.from(q), self.he.to(q));
+                    lp.total_cmp(&lq)
+                })
+                .expect("three sides");
+            let g = self.he.opp(h);
+            let pick = if self.collapse_allowed_with(h, stretch2, true) {
+                h
+            } else if g != NONE && self.collapse_allowed_with(g, stretch2, true) {
+                g
+            } else {
+                continue;
+            };
+            let (a, b) = (self.he.from(pick), self.he.to(pick));
+            let p = self.merged_position(pick);
+            self.size[b as usize] = self.size[a as usize].min(self.size[b as usize]);
+            self.he.collapse(pick);
+            self.he.set_position(b, p);
+            touched[b as usize] = true;
+            self.collapses += 1;
+            any = true;
+        }
+        any
     }
 
     fn collapse_short(&mut self) {
@@ -1193,7 +1270,7 @@ pub struct IsotropicNode;
 impl NodeKind for IsotropicNode {
     type Params = IsotropicParams;
     const KIND: &'static str = "remesh.isotropic";
-    const VERSION: u32 = 5;
+    const VERSION: u32 = 6;
     const DOC: &'static str = "Isotropic remeshing at a target edge length (Botsch & Kobbelt \
         2004, thesis §5.1.1): splits > 4/3 L, collapses < 4/5 L, valence-improving flips, \
         tangential relaxation and projection onto the input surface, for `iterations` rounds. \

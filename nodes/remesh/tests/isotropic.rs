@@ -741,3 +741,22 @@ fn feature_grading_refines_along_dense_features_only() {
     assert!((mid_graded - l).abs() < 0.2 * l, "{mid_graded} vs {l}");
     assert!((mid_plain - l).abs() < 0.2 * l, "{mid_plain} vs {l}");
 }
+
+/// Targets at which the rounds alone left a triangle below 30° (27.0°, 29.4°, 28.7° on the
+/// square, 28.1° on the cube, before the final sliver collapse was added).
+#[test]
+fn slivers_next_to_corners_are_collapsed() {
+    let square = bumpy_square(30);
+    for t in [0.103, 0.129, 0.194] {
+        let out = isotropic(&square, None, &abs(t), Par::Seq).unwrap().mesh;
+        assert_manifold(&out);
+        let lo = min_angle_deg(&out);
+        assert!(lo >= 30.0, "square at {t}: min angle {lo:.2}°");
+    }
+    let out = isotropic(&cube(12), None, &abs(0.259), Par::Seq)
+        .unwrap()
+        .mesh;
+    assert_manifold(&out);
+    let lo = min_angle_deg(&out);
+    assert!(lo >= 30.0, "cube at 0.259: min angle {lo:.2}°");
+}
