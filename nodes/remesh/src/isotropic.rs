@@ -31,7 +31,10 @@
 //! raises the smallest angle around it, allowing edges up to 2 L (under the feature rules of
 //! step 2): a vertex left near a corner or a feature, whose collapse every round refused for
 //! an edge just over 4/3 L, goes. Then one more flip sweep (step 3) runs, since relaxation
-//! moved the vertices.
+//! moved the vertices, and a free vertex of a triangle still below 30° moves to the best of
+//! a few nearby positions on the input surface when that raises the smallest angle of its
+//! triangles and they stay within 15° of their mean normal (beside curved features, whose
+//! bends pin short feature edges; on curved patches such moves cost accuracy).
 //!
 //! With `feature_grading` > 0 the target is local: L, except near stretches of feature chain
 //! whose bends only allow shorter edges (their [`Chain::edge_capacity`] under the tolerance),
@@ -402,6 +405,7 @@ fn isotropic_with(
         // Relaxation moved the vertices since the last flips: one more flip sweep.
         check()?;
         st.equalize_valences(par);
+        st.improve_sliver_vertices();
     }
 
     let tagged = (0..st.he.n_halfedge_slots() as u32)
@@ -904,6 +908,106 @@ impl State<'_> {
         }
     }
 
+    /// After the last flips: a free vertex of a triangle still below 30° moves to the best of
+    /// a few nearby positions (towards the centroid of its neighbours, and a ring of tangent
+    /// steps; each projected onto the input surface) when that raises the smallest angle of
+    /// its triangles and keeps them nearly flat. A few sweeps in face order.
+    fn improve_sliver_vertices(&mut self) {
+        for _ in 0..3 {
+            let mut any = false;
+            for f in 0..(self.he.n_halfedge_slots() / 3) as u32 {
+                if !self.he.is_face_alive(f) {
+                    continue;
+                }
+                let t = self.he.face_vertices(f);
+                let [x, y, z] = t.map(|u| self.he.position(u));
+                if min_angle_cos(x, y, z) <= COS_FLIP_MIN_ANGLE {
+                    continue;
+                }
+                for v in t {
+                    if self.role[v as usize] == Role::Free && !self.he.is_boundary_vertex(v) {
+                        any |= self.improve_vertex(v);
+                    }
+                }
+            }
+            if !any {
+                break;
+            }
+        }
+    }
+
+    /// Moves free vertex `v` to the best of a few positions towards its neighbours' centroid
+    /// when that raises the smallest angle of its triangles; returns whether it moved.
+    fn improve_vertex(&mut self, v: u32) -> bool {
+        let p = self.he.position(v);
+        let mut c = [0.0; 3];
+        let mut count = 0.0;
+        for u in self.neighbor_iter(v) {
+            c = vec3::add(c, self.he.position(u));
+            count += 1.0;
+        }
+        if count == 0.0 {
+            return false;
+        }
+        let c = vec3::scale(c, 1.0 / count);
+        let mut normal = [0.0; 3];
+        for k in self.he.outgoing(v) {
+            normal = vec3::add(normal, self.he.face_normal_raw(halfedge::face_of(k)));
+        }
+        let n = vec3::normalize(normal);
+        let seed = if n[0].abs() < 0.9 {
+            [1.0, 0.0, 0.0]
+        } else {
+            [0.0, 1.0, 0.0]
+        };
+        // Only where the triangles around v are nearly flat (within 15° of their mean
+        // normal, before and after): on a curved patch moving v trades accuracy for angle.
+        let faces: Vec<[u32; 3]> = self
+            .he
+            .outgoing(v)
+            .map(|k| self.he.face_vertices(halfedge::face_of(k)))
+            .collect();
+        let flat = |q: V3| {
+            faces.iter().all(|t| {
+                let [a, b, c] = t.map(|u| if u == v { q } else { self.he.position(u) });
+                let m = vec3::cross(vec3::sub(b, a), vec3::sub(c, a));
+                vec3::dot(m, n) >= COS_FLAT * vec3::norm(m)
+            })
+        };
+        if !flat(p) {
+            return false;
+        }
+        let e1 = vec3::normalize(vec3::cross(n, seed));
+        let e2 = vec3::cross(n, e1);
+        let mut candidates: Vec<V3> = [0.25, 0.5, 1.0]
+            .iter()
+            .map(|&t| vec3::lerp(p, c, t))
+            .collect();
+        for r in [0.05, 0.15, 0.3] {
+            for k in 0..8 {
+                let a = k as f64 * std::f64::consts::FRAC_PI_4;
+                let d = vec3::add(vec3::scale(e1, a.cos()), vec3::scale(e2, a.sin()));
+                candidates.push(vec3::add(p, vec3::scale(d, r * self.size[v as usize])));
+            }
+        }
+        let mut best = (self.fan_min_angle_cos(v, NONE), p, NONE);
+        for q in candidates {
+            let r = self.proj.project(q, self.hint[v as usize], self.l);
+            self.projections += 1;
+            self.fallbacks += r.fallback as usize;
+            let mut new = -1.0;
+            if self.fan_ok(v, NONE, r.hit.point, &mut new) && new < best.0 && flat(r.hit.point) {
+                best = (new, r.hit.point, r.hit.face);
+            }
+        }
+        if best.2 == NONE {
+            return false;
+        }
+        self.he.set_position(v, best.1);
+        self.hint[v as usize] = best.2;
+        true
+    }
+
     fn collapse_slivers_sweep(&mut self, stretch2: f64) -> bool {
         let mut any = false;
         let mut touched = vec![false; self.he.n_vertex_slots()];
@@ -1236,6 +1340,10 @@ impl State<'_> {
 
 /// Valence-improving flips may not create an angle below both the old smallest angle of the
 /// pair and 30° (its cosine).
+/// cos 15°: how far a triangle's normal may turn from its fan's mean for the final vertex
+/// moves.
+const COS_FLAT: f64 = 0.965_925_826_289_068_3;
+
 const COS_FLIP_MIN_ANGLE: f64 = 0.866_025_403_784_438_6;
 /// Collapses may not create an angle below both the old smallest angle around them and 20°
 /// (its cosine).
@@ -1270,7 +1378,7 @@ pub struct IsotropicNode;
 impl NodeKind for IsotropicNode {
     type Params = IsotropicParams;
     const KIND: &'static str = "remesh.isotropic";
-    const VERSION: u32 = 6;
+    const VERSION: u32 = 7;
     const DOC: &'static str = "Isotropic remeshing at a target edge length (Botsch & Kobbelt \
         2004, thesis §5.1.1): splits > 4/3 L, collapses < 4/5 L, valence-improving flips, \
         tangential relaxation and projection onto the input surface, for `iterations` rounds. \
