@@ -1040,16 +1040,22 @@ impl State<'_> {
             } else {
                 continue;
             };
-            let (a, b) = (self.he.from(pick), self.he.to(pick));
-            let p = self.merged_position(pick);
-            self.size[b as usize] = self.size[a as usize].min(self.size[b as usize]);
-            self.he.collapse(pick);
-            self.he.set_position(b, p);
-            touched[b as usize] = true;
-            self.collapses += 1;
+            self.apply_collapse(pick, &mut touched);
             any = true;
         }
         any
+    }
+
+    /// Collapses `pick` into its target, which takes the merged position and the smaller
+    /// local target length, and marks the target as touched in this sweep.
+    fn apply_collapse(&mut self, pick: u32, touched: &mut [bool]) {
+        let (a, b) = (self.he.from(pick), self.he.to(pick));
+        let p = self.merged_position(pick);
+        self.size[b as usize] = self.size[a as usize].min(self.size[b as usize]);
+        self.he.collapse(pick);
+        self.he.set_position(b, p);
+        touched[b as usize] = true;
+        self.collapses += 1;
     }
 
     fn collapse_short(&mut self) {
@@ -1088,13 +1094,7 @@ impl State<'_> {
                 } else {
                     continue;
                 };
-                let p = self.merged_position(pick);
-                let keep = self.he.to(pick);
-                self.size[keep as usize] = self.size[a as usize].min(self.size[b as usize]);
-                self.he.collapse(pick);
-                self.he.set_position(keep, p);
-                touched[keep as usize] = true;
-                self.collapses += 1;
+                self.apply_collapse(pick, &mut touched);
                 any = true;
             }
             if !any {
