@@ -894,9 +894,9 @@ impl State<'_> {
     }
 
     /// After the rounds: a triangle with an angle below 30° loses its shortest edge when the
-    /// collapse raises the smallest angle around it, even if that leaves an edge up to 2 L
-    /// (split again afterwards). Such slivers remain where a vertex sits close to a corner
-    /// or a feature and every collapse would have made an edge just over 4/3 L.
+    /// collapse raises the smallest angle around it, even if that leaves an edge up to 2 L.
+    /// Such slivers remain where a vertex sits close to a corner or a feature and every
+    /// collapse would have made an edge just over 4/3 L.
     fn collapse_slivers(&mut self) {
         const STRETCH2: f64 = 1.5 * 1.5;
         // A vertex takes part in one collapse per sweep; a few sweeps reach neighbouring
@@ -936,8 +936,10 @@ impl State<'_> {
         }
     }
 
-    /// Moves free vertex `v` to the best of a few positions towards its neighbours' centroid
-    /// when that raises the smallest angle of its triangles; returns whether it moved.
+    /// Moves free vertex `v` to the best of a few positions (towards its neighbours' centroid,
+    /// or tangent steps of 0.05–0.3 of its target length, projected onto the input surface)
+    /// when that raises the smallest angle of its triangles and keeps them nearly flat;
+    /// returns whether it moved.
     fn improve_vertex(&mut self, v: u32) -> bool {
         let p = self.he.position(v);
         let mut c = [0.0; 3];
