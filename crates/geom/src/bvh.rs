@@ -306,6 +306,47 @@ impl TriangleBvh {
     }
 }
 
+impl TriangleBvh {
+    /// Whether some triangle lies within distance `r` of `p` (at most `r`): stops at the
+    /// first one found, so it is cheaper than [`TriangleBvh::closest`] when the answer is yes.
+    pub fn any_within(&self, p: V3, r: f64) -> bool {
+        let r2 = r * r;
+        let mut stack: Vec<u32> = Vec::with_capacity(64);
+        if !self.nodes.is_empty() {
+            stack.push(0);
+        }
+        while let Some(n) = stack.pop() {
+            let node = &self.nodes[n as usize];
+            if node.bounds.dist2(p) > r2 {
+                continue;
+            }
+            if node.count > 0 {
+                let s = node.first as usize;
+                for &f in &self.order[s..s + node.count as usize] {
+                    let [a, b, c] = self.tris[f as usize];
+                    if closest_point_on_triangle(p, a, b, c).0 <= r2 {
+                        return true;
+                    }
+                }
+            } else if node.first > 0 {
+                let l = node.first;
+                let (dl, dr) = (
+                    self.nodes[l as usize].bounds.dist2(p),
+                    self.nodes[l as usize + 1].bounds.dist2(p),
+                );
+                if dl <= dr {
+                    stack.push(l + 1);
+                    stack.push(l);
+                } else {
+                    stack.push(l);
+                    stack.push(l + 1);
+                }
+            }
+        }
+        false
+    }
+}
+
 fn barycentric_point(bary: [f64; 3], a: V3, b: V3, c: V3) -> V3 {
     [
         bary[0] * a[0] + bary[1] * b[0] + bary[2] * c[0],

@@ -44,3 +44,33 @@ fn segment_and_triangle_points() {
     let q = bvh.closest([2.0, 2.0, 0.0]).point;
     assert!(vec3::dist(q, [0.5, 0.5, 0.0]) < 1e-15);
 }
+
+#[test]
+fn any_within_agrees_with_the_brute_force_distance() {
+    let m = shapes::sphere(1.0, 3).unwrap();
+    let bvh = Bvh::new(&m);
+    let mut s = 777u64;
+    let mut rnd = || {
+        s = s
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (s >> 11) as f64 / (1u64 << 53) as f64 * 3.0 - 1.5
+    };
+    for i in 0..300 {
+        let p = [rnd(), rnd(), rnd()];
+        let d = (0..m.n_faces() as u32)
+            .map(|f| bvh.on_face(f, p).dist2)
+            .fold(f64::INFINITY, f64::min)
+            .sqrt();
+        assert!(
+            bvh.any_within(p, d * 1.001 + 1e-12),
+            "query {i}: within {d}"
+        );
+        assert!(
+            !bvh.any_within(p, d * 0.999),
+            "query {i}: nothing nearer than {d}"
+        );
+    }
+    let empty = Bvh::new(&TriMesh::new(Vec::new(), Vec::new()));
+    assert!(!empty.any_within([0.0; 3], 1e9));
+}

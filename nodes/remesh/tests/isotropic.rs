@@ -782,3 +782,35 @@ fn thin_triangles_beside_curved_rims_are_widened() {
         assert!(h < 0.006, "cylinder at {t}: Hausdorff {h}");
     }
 }
+
+/// Largest distance from the vertices of `input` to the surface `out`.
+fn farthest_input_vertex(input: &TriMesh, out: &TriMesh) -> f64 {
+    let bvh = Bvh::new(out);
+    input
+        .positions
+        .iter()
+        .map(|&p| bvh.closest(p).distance)
+        .fold(0.0, f64::max)
+}
+
+#[test]
+fn tips_below_the_target_length_are_kept() {
+    // A cigar: its ends curve with radius b²/a = 0.0144, far below the target 0.1, so the
+    // remeshed triangles cut the tips off unless a vertex is pulled onto each (without that
+    // step: 0.61 L and 0.66 L at the two apexes, 0.70 L at worst).
+    let cigar = shapes::ellipsoid(1.0, 0.12, 0.12, 5, 0.0, 1).unwrap();
+    let l = 0.1;
+    for par in [Par::Seq, Par::Rayon] {
+        let out = isotropic(&cigar, None, &abs(l), par).unwrap().mesh;
+        assert_manifold(&out);
+        let bvh = Bvh::new(&out);
+        for apex in [[1.0, 0.0, 0.0], [-1.0, 0.0, 0.0]] {
+            let d = bvh.closest(apex).distance;
+            assert!(d < 0.2 * l, "apex {apex:?} is {d} from the output");
+        }
+        let far = farthest_input_vertex(&cigar, &out);
+        assert!(far < 0.4 * l, "an input vertex is {far} from the output");
+        let lo = min_angle_deg(&out);
+        assert!(lo >= 35.0, "min angle {lo:.2}°");
+    }
+}
