@@ -282,19 +282,7 @@ impl TriangleBvh {
                     }
                 }
             } else if node.first > 0 {
-                let l = node.first;
-                let (dl, dr) = (
-                    self.nodes[l as usize].bounds.dist2(p),
-                    self.nodes[l as usize + 1].bounds.dist2(p),
-                );
-                // Push the farther child first so the nearer one is searched first.
-                if dl <= dr {
-                    stack.push(l + 1);
-                    stack.push(l);
-                } else {
-                    stack.push(l);
-                    stack.push(l + 1);
-                }
+                self.push_children(node.first, p, &mut stack);
             }
         }
         if best.face != u32::MAX {
@@ -329,21 +317,26 @@ impl TriangleBvh {
                     }
                 }
             } else if node.first > 0 {
-                let l = node.first;
-                let (dl, dr) = (
-                    self.nodes[l as usize].bounds.dist2(p),
-                    self.nodes[l as usize + 1].bounds.dist2(p),
-                );
-                if dl <= dr {
-                    stack.push(l + 1);
-                    stack.push(l);
-                } else {
-                    stack.push(l);
-                    stack.push(l + 1);
-                }
+                self.push_children(node.first, p, &mut stack);
             }
         }
         false
+    }
+
+    /// Pushes the children `l` and `l + 1` of an inner node, the farther from `p` first so
+    /// that the nearer one is searched first.
+    fn push_children(&self, l: u32, p: V3, stack: &mut Vec<u32>) {
+        let (dl, dr) = (
+            self.nodes[l as usize].bounds.dist2(p),
+            self.nodes[l as usize + 1].bounds.dist2(p),
+        );
+        if dl <= dr {
+            stack.push(l + 1);
+            stack.push(l);
+        } else {
+            stack.push(l);
+            stack.push(l + 1);
+        }
     }
 }
 

@@ -3,17 +3,22 @@
 use super::*;
 use crestflow_geom::{shapes, TriMesh};
 
-#[test]
-fn matches_brute_force_with_any_hint() {
-    let m = shapes::sphere(1.0, 3).unwrap();
-    let bvh = Bvh::new(&m);
-    let mut s = 12345u64;
-    let mut rnd = || {
+/// A deterministic stream of numbers in [-1.5, 1.5) (a linear congruential generator).
+fn coordinates(seed: u64) -> impl FnMut() -> f64 {
+    let mut s = seed;
+    move || {
         s = s
             .wrapping_mul(6364136223846793005)
             .wrapping_add(1442695040888963407);
         (s >> 11) as f64 / (1u64 << 53) as f64 * 3.0 - 1.5
-    };
+    }
+}
+
+#[test]
+fn matches_brute_force_with_any_hint() {
+    let m = shapes::sphere(1.0, 3).unwrap();
+    let bvh = Bvh::new(&m);
+    let mut rnd = coordinates(12345);
     for i in 0..300 {
         let p = [rnd(), rnd(), rnd()];
         let brute = (0..m.n_faces() as u32)
@@ -49,13 +54,7 @@ fn segment_and_triangle_points() {
 fn any_within_agrees_with_the_brute_force_distance() {
     let m = shapes::sphere(1.0, 3).unwrap();
     let bvh = Bvh::new(&m);
-    let mut s = 777u64;
-    let mut rnd = || {
-        s = s
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (s >> 11) as f64 / (1u64 << 53) as f64 * 3.0 - 1.5
-    };
+    let mut rnd = coordinates(777);
     for i in 0..300 {
         let p = [rnd(), rnd(), rnd()];
         let d = (0..m.n_faces() as u32)

@@ -214,40 +214,6 @@ pub struct RemeshOutput {
     pub report: Report,
 }
 
-/// The neighbours of each vertex of a mesh (compressed rows).
-struct VertexAdjacency {
-    start: Vec<u32>,
-    list: Vec<u32>,
-}
-
-impl VertexAdjacency {
-    fn new(mesh: &TriMesh) -> VertexAdjacency {
-        let topo = mesh.topology();
-        let n = mesh.n_vertices();
-        let mut start = vec![0u32; n + 1];
-        for e in &topo.edges {
-            start[e[0] as usize + 1] += 1;
-            start[e[1] as usize + 1] += 1;
-        }
-        for v in 0..n {
-            start[v + 1] += start[v];
-        }
-        let mut fill = start.clone();
-        let mut list = vec![0u32; start[n] as usize];
-        for e in &topo.edges {
-            for (a, b) in [(e[0], e[1]), (e[1], e[0])] {
-                list[fill[a as usize] as usize] = b;
-                fill[a as usize] += 1;
-            }
-        }
-        VertexAdjacency { start, list }
-    }
-
-    fn neighbours(&self, v: u32) -> &[u32] {
-        &self.list[self.start[v as usize] as usize..self.start[v as usize + 1] as usize]
-    }
-}
-
 /// The role of a working-mesh vertex.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Role {
@@ -1070,7 +1036,6 @@ impl State<'_> {
             .filter(|h| h.0 > limit2)
             .collect();
         drop(bvh);
-        let adjacency = VertexAdjacency::new(input);
         let mut stamp = vec![0u32; n_in];
         let mut generation = 0u32;
         let mut far_face = vec![NONE; n_in];
@@ -1105,8 +1070,7 @@ impl State<'_> {
                         continue;
                     }
                     generation += 1;
-                    let near = self
-                        .input_near_fan(v, p, i, limit, input, &adjacency, &mut stamp, generation);
+                    let near = self.input_near_fan(v, p, i, limit, input, &mut stamp, generation);
                     let p_face = input_face[i as usize];
                     if !self.fan_move_keeps_distances(v, p, p_face, &near, &far_face, limit, input)
                     {
@@ -1155,6 +1119,18 @@ impl State<'_> {
         }
     }
 
+    /// The triangles around `v`, each corner mapped by `value`, `v` itself to `at`.
+    fn fan_corners<T: Copy>(&self, v: u32, at: T, value: impl Fn(u32) -> T) -> Vec<[T; 3]> {
+        self.he
+            .outgoing(v)
+            .map(|k| {
+                self.he
+                    .face_vertices(halfedge::face_of(k))
+                    .map(|u| if u == v { at } else { value(u) })
+            })
+            .collect()
+    }
+
     /// The input vertices whose distance from the triangles of `v` may change when `v` moves
     /// to `p`: those within the reach of the fan at either position (its longest spoke plus
     /// `limit`) of either position, found by a breadth-first search over the input's edges
@@ -1168,7 +1144,6 @@ impl State<'_> {
         i: u32,
         limit: f64,
         input: &TriMesh,
-        adjacency: &VertexAdjacency,
         stamp: &mut [u32],
         generation: u32,
     ) -> Vec<u32> {
@@ -1198,7 +1173,7 @@ impl State<'_> {
         while k < found.len() {
             let a = found[k];
             k += 1;
-            for &b in adjacency.neighbours(a) {
+            for &b in input.topology().neighbors(a) {
                 if stamp[b as usize] != generation && inside(input.positions[b as usize]) {
                     stamp[b as usize] = generation;
                     found.push(b);
@@ -1222,21 +1197,11 @@ impl State<'_> {
         limit: f64,
         input: &TriMesh,
     ) -> bool {
-        let fan = |at: V3| -> Vec<[V3; 3]> {
-            self.he
-                .outgoing(v)
-                .map(|k| {
-                    self.he.face_vertices(halfedge::face_of(k)).map(|u| {
-                        if u == v {
-                            at
-                        } else {
-                            self.he.position(u)
-                        }
-                    })
-                })
-                .collect()
-        };
-        let (before, after) = (fan(self.he.position(v)), fan(p));
+        let position = |u: u32| self.he.position(u);
+        let (before, after) = (
+            self.fan_corners(v, position(v), position),
+            self.fan_corners(v, p, position),
+        );
         let fan_faces: Vec<u32> = self.he.outgoing(v).map(halfedge::face_of).collect();
         let dist2 = |tris: &[[V3; 3]], x: V3| {
             tris.iter()
@@ -1291,20 +1256,7 @@ impl State<'_> {
             }
             worst
         };
-        let hints_of = |moved: u32| -> Vec<[u32; 3]> {
-            self.he
-                .outgoing(v)
-                .map(|k| {
-                    self.he.face_vertices(halfedge::face_of(k)).map(|u| {
-                        if u == v {
-                            moved
-                        } else {
-                            self.hint[u as usize]
-                        }
-                    })
-                })
-                .collect()
-        };
+        let hints_of = |moved: u32| self.fan_corners(v, moved, |u| self.hint[u as usize]);
         let new_off = off_surface(&after, &hints_of(p_face));
         new_off <= limit2 || new_off <= off_surface(&before, &hints_of(self.hint[v as usize]))
     }
