@@ -14,6 +14,14 @@ fn coordinates(seed: u64) -> impl FnMut() -> f64 {
     }
 }
 
+/// The closest point of `m` to `p` by trying every face (ties to the smaller face).
+fn brute_force(bvh: &Bvh, m: &TriMesh, p: V3) -> Hit {
+    (0..m.n_faces() as u32)
+        .map(|f| bvh.on_face(f, p))
+        .min_by(|x, y| x.dist2.total_cmp(&y.dist2).then(x.face.cmp(&y.face)))
+        .unwrap()
+}
+
 #[test]
 fn matches_brute_force_with_any_hint() {
     let m = shapes::sphere(1.0, 3).unwrap();
@@ -21,10 +29,7 @@ fn matches_brute_force_with_any_hint() {
     let mut rnd = coordinates(12345);
     for i in 0..300 {
         let p = [rnd(), rnd(), rnd()];
-        let brute = (0..m.n_faces() as u32)
-            .map(|f| bvh.on_face(f, p))
-            .min_by(|x, y| x.dist2.total_cmp(&y.dist2).then(x.face.cmp(&y.face)))
-            .unwrap();
+        let brute = brute_force(&bvh, &m, p);
         let hint = if i % 2 == 0 {
             u32::MAX
         } else {
@@ -57,10 +62,7 @@ fn any_within_agrees_with_the_brute_force_distance() {
     let mut rnd = coordinates(777);
     for i in 0..300 {
         let p = [rnd(), rnd(), rnd()];
-        let d = (0..m.n_faces() as u32)
-            .map(|f| bvh.on_face(f, p).dist2)
-            .fold(f64::INFINITY, f64::min)
-            .sqrt();
+        let d = brute_force(&bvh, &m, p).distance;
         assert!(
             bvh.any_within(p, d * 1.001 + 1e-12),
             "query {i}: within {d}"

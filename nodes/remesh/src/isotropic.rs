@@ -957,12 +957,11 @@ impl State<'_> {
     /// left are looked at again, against the triangles that moved.
     fn pull_to_far_points(&mut self, input: &TriMesh, par: Par) {
         let n_in = input.n_vertices();
-        let mut input_face = vec![u32::MAX; n_in];
-        for (f, t) in input.triangles.iter().enumerate().rev() {
-            for &v in t {
-                input_face[v as usize] = f as u32;
-            }
-        }
+        let topo = input.topology();
+        // A face of each input vertex (its first; u32::MAX for an unreferenced vertex).
+        let input_face: Vec<u32> = (0..n_in as u32)
+            .map(|v| topo.vertex_faces(v).first().copied().unwrap_or(u32::MAX))
+            .collect();
         let limit = FAR_POINT * self.l;
         let limit2 = limit * limit;
         let tri = |st: &Self, g: u32| st.he.face_vertices(g).map(|u| st.he.position(u));
@@ -974,7 +973,6 @@ impl State<'_> {
         // nearest to them (in steps over the input's faces from the faces the output
         // vertices were projected onto) or around its neighbours; only the others ask a BVH
         // of the output.
-        let topo = input.topology();
         let mut owner = vec![NONE; input.n_faces()];
         let mut queue: Vec<u32> = Vec::new();
         for v in 0..self.he.n_vertex_slots() as u32 {
