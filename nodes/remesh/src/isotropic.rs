@@ -948,6 +948,11 @@ impl State<'_> {
         }
     }
 
+    /// Whether the far-point step may move `v` (a free vertex off the boundary).
+    fn movable(&self, v: u32) -> bool {
+        self.role[v as usize] == Role::Free && !self.he.is_boundary_vertex(v)
+    }
+
     /// Where the output cuts off a tip or a thin rim of the input (an input vertex farther
     /// than [`FAR_POINT`]·L from the output), a free corner of the output face closest to that
     /// input vertex moves onto it (nearest corner first, then the corners' free neighbours,
@@ -1065,19 +1070,21 @@ impl State<'_> {
                 };
                 let mut order = corners.to_vec();
                 order.sort_by(by_distance);
-                // Then the corners' other neighbours, nearest first: where the closest
-                // triangle's corners all lie on features, a free vertex next to them may
-                // still reach the point.
-                let mut ring: Vec<u32> = corners
-                    .iter()
-                    .flat_map(|&c| self.neighbor_iter(c))
-                    .filter(|u| !corners.contains(u) && !blocked[*u as usize])
-                    .collect();
-                ring.sort_by(by_distance);
-                ring.dedup();
-                order.extend(ring);
+                // Where the closest triangle's corners all lie on features, a free vertex
+                // next to them may still reach the point: the corners' other neighbours,
+                // nearest first.
+                if !corners.iter().any(|&v| self.movable(v)) {
+                    let mut ring: Vec<u32> = corners
+                        .iter()
+                        .flat_map(|&c| self.neighbor_iter(c))
+                        .filter(|u| !corners.contains(u) && !blocked[*u as usize])
+                        .collect();
+                    ring.sort_by(by_distance);
+                    ring.dedup();
+                    order.extend(ring);
+                }
                 for v in order {
-                    if self.role[v as usize] != Role::Free || self.he.is_boundary_vertex(v) {
+                    if !self.movable(v) {
                         continue;
                     }
                     let old = self.fan_min_angle_cos(v, NONE);
