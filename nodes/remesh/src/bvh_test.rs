@@ -14,6 +14,15 @@ fn coordinates(seed: u64) -> impl FnMut() -> f64 {
     }
 }
 
+/// A level-3 icosphere, its BVH and 300 query points around it from `seed`.
+fn sphere_and_queries(seed: u64) -> (TriMesh, Bvh, Vec<V3>) {
+    let m = shapes::sphere(1.0, 3).unwrap();
+    let bvh = Bvh::new(&m);
+    let mut rnd = coordinates(seed);
+    let points = (0..300).map(|_| [rnd(), rnd(), rnd()]).collect();
+    (m, bvh, points)
+}
+
 /// The closest point of `m` to `p` by trying every face (ties to the smaller face).
 fn brute_force(bvh: &Bvh, m: &TriMesh, p: V3) -> Hit {
     (0..m.n_faces() as u32)
@@ -24,11 +33,8 @@ fn brute_force(bvh: &Bvh, m: &TriMesh, p: V3) -> Hit {
 
 #[test]
 fn matches_brute_force_with_any_hint() {
-    let m = shapes::sphere(1.0, 3).unwrap();
-    let bvh = Bvh::new(&m);
-    let mut rnd = coordinates(12345);
-    for i in 0..300 {
-        let p = [rnd(), rnd(), rnd()];
+    let (m, bvh, points) = sphere_and_queries(12345);
+    for (i, &p) in points.iter().enumerate() {
         let brute = brute_force(&bvh, &m, p);
         let hint = if i % 2 == 0 {
             u32::MAX
@@ -57,11 +63,8 @@ fn segment_and_triangle_points() {
 
 #[test]
 fn any_within_agrees_with_the_brute_force_distance() {
-    let m = shapes::sphere(1.0, 3).unwrap();
-    let bvh = Bvh::new(&m);
-    let mut rnd = coordinates(777);
-    for i in 0..300 {
-        let p = [rnd(), rnd(), rnd()];
+    let (m, bvh, points) = sphere_and_queries(777);
+    for (i, &p) in points.iter().enumerate() {
         let d = brute_force(&bvh, &m, p).distance;
         assert!(
             bvh.any_within(p, d * 1.001 + 1e-12),
