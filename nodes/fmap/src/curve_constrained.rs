@@ -519,7 +519,7 @@ pub struct CurveConstrainedNode;
 impl NodeKind for CurveConstrainedNode {
     type Params = CurveConstrainedParams;
     const KIND: &'static str = "fmap.curve_constrained";
-    const VERSION: u32 = 1;
+    const VERSION: u32 = 2;
     const DOC: &'static str = "Curve-constrained functional map (thesis §5.2, eq. 5.5): \
         Laplacian commutativity (α = 0.5) plus one restricted-basis term per corresponding \
         curve pair, solved by conjugate gradients on precomputed k×k terms (Algorithms 5.1, \

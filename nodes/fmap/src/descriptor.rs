@@ -348,7 +348,7 @@ pub struct DescriptorMapNode;
 impl NodeKind for DescriptorMapNode {
     type Params = DescriptorMapParams;
     const KIND: &'static str = "fmap.descriptor";
-    const VERSION: u32 = 1;
+    const VERSION: u32 = 2;
     const DOC: &'static str = "Descriptor-preservation functional map (Ovsjanikov et al. \
         2012; thesis eq. 2.7 + 2.8): HKS or WKS descriptors (plus heat kernel maps of optional \
         landmarks) preserved in the least-squares sense with Laplacian commutativity, solved \

@@ -512,7 +512,7 @@ pub struct SavePointMapNode;
 impl NodeKind for SavePointMapNode {
     type Params = SavePointMapParams;
     const KIND: &'static str = "fmap.save_point_map";
-    const VERSION: u32 = 1;
+    const VERSION: u32 = 2;
     const DOC: &'static str = "Writes a point map as text: line y is the source vertex matched \
         to target vertex y (0-based), the format of the ground-truth files.";
 
@@ -541,7 +541,7 @@ pub struct PointMapNode;
 impl NodeKind for PointMapNode {
     type Params = PointMapParams;
     const KIND: &'static str = "fmap.point_map";
-    const VERSION: u32 = 1;
+    const VERSION: u32 = 2;
     const DOC: &'static str = "Point-to-point map from a functional map: every target vertex \
         goes to the source vertex nearest in the spectral embedding (Ovsjanikov et al. 2012; \
         blocked brute-force search, parallel and deterministic), optionally refined by ZoomOut \

@@ -170,7 +170,7 @@ pub struct TransferNode;
 impl NodeKind for TransferNode {
     type Params = TransferParams;
     const KIND: &'static str = "fmap.transfer";
-    const VERSION: u32 = 1;
+    const VERSION: u32 = 2;
     const DOC: &'static str = "Carries a colour field (bounding-box coordinates as RGB, \
         optionally striped) from the source to the target through a point map or directly \
         through a functional map (thesis §5.2.5). Output: VertexColors for fmap.render_colors.";

@@ -867,7 +867,7 @@ pub struct EigenbasisNode;
 impl NodeKind for EigenbasisNode {
     type Params = EigenbasisParams;
     const KIND: &'static str = "spectral.eigenbasis";
-    const VERSION: u32 = 2;
+    const VERSION: u32 = 3;
     const DOC: &'static str = "The k smallest eigenpairs of the Laplace-Beltrami operator, \
         L phi = lambda M phi, M-orthonormal (thesis §2.3, §2.6.3; the basis of functional \
         maps, Ovsjanikov et al. 2012). Block shift-invert Lanczos with full \
