@@ -965,6 +965,10 @@ impl State<'_> {
     ///   seven points on each triangle from the input surface (moving a vertex uncovers the
     ///   place it leaves; without this test the armadillo's largest distance grew).
     ///
+    /// Where no vertex qualifies, an edge of that face is split and its new vertex put on the
+    /// point under the same conditions ([`State::split_toward`]; e.g. between chains of
+    /// feature vertices, or across a strip whose vertices all lie on its boundary).
+    ///
     /// The second condition makes the far points a shrinking set: after the first pass (up
     /// to three; a moved vertex and its neighbours wait for the next) only the far points
     /// left are looked at again, against the triangles that moved.
@@ -1083,6 +1087,7 @@ impl State<'_> {
                     ring.dedup();
                     order.extend(ring);
                 }
+                let mut pulled = false;
                 for v in order {
                     if !self.movable(v) {
                         continue;
@@ -1110,7 +1115,31 @@ impl State<'_> {
                         blocked[u as usize] = true;
                     }
                     moved.push(v);
+                    pulled = true;
                     break;
+                }
+                if !pulled {
+                    if let Some(m) = self.split_toward(
+                        f,
+                        p,
+                        i,
+                        far_d2,
+                        &far_face,
+                        limit,
+                        input,
+                        &input_face,
+                        &mut stamp,
+                        &mut generation,
+                        &blocked,
+                    ) {
+                        blocked.resize(self.he.n_vertex_slots(), false);
+                        blocked[m as usize] = true;
+                        let ring: Vec<u32> = self.neighbor_iter(m).collect();
+                        for u in ring {
+                            blocked[u as usize] = true;
+                        }
+                        moved.push(m);
+                    }
                 }
             }
             if moved.is_empty() {
@@ -1145,6 +1174,122 @@ impl State<'_> {
         }
     }
 
+    /// Where no vertex may move onto the far input point `p` (input vertex `i`, closest to
+    /// output face `f`), an edge of `f` is split and the new vertex put on `p`: the edges
+    /// that are neither features nor on the boundary, the one whose middle is nearest first,
+    /// under the same conditions as a moved vertex (the four triangles turn by at most 60°
+    /// from the two they replace, their smallest angle is at least 30°, nothing near ends
+    /// up farther). Returns the new vertex.
+    #[allow(clippy::too_many_arguments)]
+    fn split_toward(
+        &mut self,
+        f: u32,
+        p: V3,
+        i: u32,
+        far_d2: f64,
+        far_face: &[u32],
+        limit: f64,
+        input: &TriMesh,
+        input_face: &[u32],
+        stamp: &mut [u32],
+        generation: &mut u32,
+        blocked: &[bool],
+    ) -> Option<u32> {
+        let mut edges: Vec<(f64, u32)> = (0..3)
+            .map(|k| 3 * f + k)
+            .filter(|&h| self.he.tag(h) == NONE && !self.he.is_boundary_edge(h))
+            .map(|h| {
+                let mid = vec3::lerp(
+                    self.he.position(self.he.from(h)),
+                    self.he.position(self.he.to(h)),
+                    0.5,
+                );
+                (vec3::dist(mid, p), h)
+            })
+            .collect();
+        edges.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        let p_face = input_face[i as usize];
+        for (_, h) in edges {
+            // Faces (a, b, c) and (b, a, d) become (a, m, c), (m, b, c), (b, m, d), (m, a, d).
+            let g = self.he.opp(h);
+            let (a, b) = (self.he.from(h), self.he.to(h));
+            let c = self.he.from(halfedge::prev(h));
+            let d = self.he.from(halfedge::prev(g));
+            if [a, b, c, d].iter().any(|&u| blocked[u as usize]) {
+                continue;
+            }
+            let x = |u: u32| self.he.position(u);
+            let mid = vec3::lerp(x(a), x(b), 0.5);
+            let quads = |m: V3| {
+                vec![
+                    [x(a), m, x(c)],
+                    [m, x(b), x(c)],
+                    [x(b), m, x(d)],
+                    [m, x(a), x(d)],
+                ]
+            };
+            let (before, after) = (quads(mid), quads(p));
+            let (nf, ng) = (
+                self.he.face_normal_raw(h / 3),
+                self.he.face_normal_raw(g / 3),
+            );
+            let shape_ok = after.iter().enumerate().all(|(k, t)| {
+                let n_old = if k < 2 { nf } else { ng };
+                let n_new = vec3::cross(vec3::sub(t[1], t[0]), vec3::sub(t[2], t[0]));
+                let (lo, ln) = (vec3::norm(n_old), vec3::norm(n_new));
+                ln > 1e-12 * lo
+                    && vec3::dot(n_old, n_new) >= self.cos_turn * lo * ln
+                    && min_angle_cos(t[0], t[1], t[2]) <= COS_FAR_MOVE_MIN_ANGLE
+            });
+            if !shape_ok {
+                continue;
+            }
+            let hint = |u: u32| self.hint[u as usize];
+            let hints = |m: u32| {
+                vec![
+                    [hint(a), m, hint(c)],
+                    [m, hint(b), hint(c)],
+                    [hint(b), m, hint(d)],
+                    [m, hint(a), hint(d)],
+                ]
+            };
+            let (hints_before, hints_after) = (hints(hint(a)), hints(p_face));
+            *generation += 1;
+            let near = self.input_near(
+                mid,
+                p,
+                &[a, b, c, d],
+                hint(a),
+                i,
+                limit,
+                input,
+                stamp,
+                *generation,
+            );
+            if !self.move_keeps_distances(
+                [&before, &after],
+                [&hints_before, &hints_after],
+                &[h / 3, g / 3],
+                &near,
+                far_face,
+                limit,
+                far_d2,
+                input,
+            ) {
+                continue;
+            }
+            let m = self.he.split_edge(h, p);
+            self.role.push(Role::Free);
+            self.param.push(0.0);
+            self.hint.push(p_face);
+            self.size
+                .push(0.5 * (self.size[a as usize] + self.size[b as usize]));
+            self.splits += 1;
+            return Some(m);
+        }
+        None
+    }
+
     /// The triangles around `v`, each corner mapped by `value`, `v` itself to `at`.
     fn fan_corners<T: Copy>(&self, v: u32, at: T, value: impl Fn(u32) -> T) -> Vec<[T; 3]> {
         self.he
@@ -1173,17 +1318,46 @@ impl State<'_> {
         stamp: &mut [u32],
         generation: u32,
     ) -> Vec<u32> {
+        let ring: Vec<u32> = self.neighbor_iter(v).collect();
         let q = self.he.position(v);
+        self.input_near(
+            q,
+            p,
+            &ring,
+            self.hint[v as usize],
+            i,
+            limit,
+            input,
+            stamp,
+            generation,
+        )
+    }
+
+    /// [`State::input_near_fan`] for a fan with centre `q` (projected onto input face
+    /// `q_hint`) moving to `p`, around the vertices `ring`.
+    #[allow(clippy::too_many_arguments)]
+    fn input_near(
+        &self,
+        q: V3,
+        p: V3,
+        ring: &[u32],
+        q_hint: u32,
+        i: u32,
+        limit: f64,
+        input: &TriMesh,
+        stamp: &mut [u32],
+        generation: u32,
+    ) -> Vec<u32> {
         let mut reach: f64 = 0.0;
         let mut seeds = vec![i];
-        for u in self.neighbor_iter(v) {
+        for &u in ring {
             let x = self.he.position(u);
             reach = reach.max(vec3::dist(x, q)).max(vec3::dist(x, p));
             if let Some(t) = input.triangles.get(self.hint[u as usize] as usize) {
                 seeds.extend_from_slice(t);
             }
         }
-        if let Some(t) = input.triangles.get(self.hint[v as usize] as usize) {
+        if let Some(t) = input.triangles.get(q_hint as usize) {
             seeds.extend_from_slice(t);
         }
         let r = reach + limit;
@@ -1227,11 +1401,40 @@ impl State<'_> {
         input: &TriMesh,
     ) -> bool {
         let position = |u: u32| self.he.position(u);
-        let (before, after) = (
-            self.fan_corners(v, position(v), position),
-            self.fan_corners(v, p, position),
-        );
+        let before = self.fan_corners(v, position(v), position);
+        let after = self.fan_corners(v, p, position);
         let fan_faces: Vec<u32> = self.he.outgoing(v).map(halfedge::face_of).collect();
+        let hints_of = |moved: u32| self.fan_corners(v, moved, |u| self.hint[u as usize]);
+        let hints_before = hints_of(self.hint[v as usize]);
+        let hints_after = hints_of(p_face);
+        self.move_keeps_distances(
+            [&before, &after],
+            [&hints_before, &hints_after],
+            &fan_faces,
+            near,
+            far_face,
+            limit,
+            far_d2,
+            input,
+        )
+    }
+
+    /// [`State::fan_move_keeps_distances`] for triangles `tris[0]` becoming `tris[1]` (the
+    /// input faces their corners were projected onto in `hints`), which replace the faces
+    /// `fan_faces`.
+    #[allow(clippy::too_many_arguments)]
+    fn move_keeps_distances(
+        &self,
+        tris: [&[[V3; 3]]; 2],
+        hints: [&[[u32; 3]]; 2],
+        fan_faces: &[u32],
+        near: &[u32],
+        far_face: &[u32],
+        limit: f64,
+        far_d2: f64,
+        input: &TriMesh,
+    ) -> bool {
+        let [before, after] = tris;
         let dist2 = |tris: &[[V3; 3]], x: V3| {
             tris.iter()
                 .map(|t| crestflow_geom::bvh::closest_point_on_triangle(x, t[0], t[1], t[2]).0)
@@ -1241,11 +1444,11 @@ impl State<'_> {
         let mut uncovered: f64 = 0.0;
         for &k in near {
             let x = input.positions[k as usize];
-            let d_new = dist2(&after, x);
+            let d_new = dist2(after, x);
             if d_new <= limit2 {
                 continue;
             }
-            let d_old = dist2(&before, x);
+            let d_old = dist2(before, x);
             // Farther than the limit from the fan before: either a far point, whose own face
             // may be in the fan, or closer to some other (unmoved) face, which the move does
             // not change.
@@ -1292,9 +1495,8 @@ impl State<'_> {
             }
             worst
         };
-        let hints_of = |moved: u32| self.fan_corners(v, moved, |u| self.hint[u as usize]);
-        let new_off = off_surface(&after, &hints_of(p_face));
-        new_off <= limit2 || new_off <= off_surface(&before, &hints_of(self.hint[v as usize]))
+        let new_off = off_surface(after, hints[1]);
+        new_off <= limit2 || new_off <= off_surface(before, hints[0])
     }
 
     /// Moves free vertex `v` to the best of a few positions (towards its neighbours' centroid,
@@ -1790,7 +1992,7 @@ pub struct IsotropicNode;
 impl NodeKind for IsotropicNode {
     type Params = IsotropicParams;
     const KIND: &'static str = "remesh.isotropic";
-    const VERSION: u32 = 9;
+    const VERSION: u32 = 10;
     const DOC: &'static str = "Isotropic remeshing at a target edge length (Botsch & Kobbelt \
         2004, thesis §5.1.1): splits > 4/3 L, collapses < 4/5 L, valence-improving flips, \
         tangential relaxation and projection onto the input surface, for `iterations` rounds. \

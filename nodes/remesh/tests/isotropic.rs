@@ -843,3 +843,50 @@ fn sideways_flips_make_most_vertices_regular() {
         assert!(lo >= 30.0, "{name}: min angle {lo:.2}°");
     }
 }
+
+#[test]
+fn far_points_between_boundary_vertices_get_a_new_vertex() {
+    // A strip one target length wide (every output vertex on its boundary, none may move)
+    // with a bump 0.36 L high in the middle: the triangles across the strip cut the bump off
+    // (its top 0.36 L from the output without the split, measured) unless an edge across it
+    // is split and the new vertex put on the bump's top.
+    let (nx, ny) = (150, 25);
+    let (w, h) = (0.6, 0.1);
+    let l = 0.1;
+    let bump = |x: f64, y: f64| {
+        let r2 = (x - 0.3) * (x - 0.3) + (y - 0.05) * (y - 0.05);
+        0.036 * (-r2 / (2.0 * 0.012 * 0.012)).exp()
+    };
+    let mut pos = Vec::new();
+    for j in 0..=ny {
+        for i in 0..=nx {
+            let (x, y) = (w * i as f64 / nx as f64, h * j as f64 / ny as f64);
+            let z = if j == 0 || j == ny { 0.0 } else { bump(x, y) };
+            pos.push([x, y, z]);
+        }
+    }
+    let id = |i: usize, j: usize| (j * (nx + 1) + i) as u32;
+    let mut tri = Vec::new();
+    for j in 0..ny {
+        for i in 0..nx {
+            tri.push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
+            tri.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
+        }
+    }
+    let strip = TriMesh::new(pos, tri);
+    let params = IsotropicParams {
+        sharp_edges: false,
+        ..abs(l)
+    };
+    for par in [Par::Seq, Par::Rayon] {
+        let out = isotropic(&strip, None, &params, par).unwrap().mesh;
+        assert_manifold(&out);
+        let top = [0.3, 0.05, 0.036];
+        let d = Bvh::new(&out).closest(top).distance;
+        assert!(d < 0.1 * l, "the bump's top is {d} from the output");
+        let far = farthest_input_vertex(&strip, &out);
+        assert!(far < 0.3 * l, "an input vertex is {far} from the output");
+        let lo = min_angle_deg(&out);
+        assert!(lo >= 30.0, "min angle {lo:.2}°");
+    }
+}
