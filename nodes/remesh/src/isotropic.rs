@@ -1100,10 +1100,21 @@ impl State<'_> {
                         continue;
                     }
                     generation += 1;
-                    let near = self.input_near_fan(v, p, i, limit, input, &mut stamp, generation);
+                    let ring: Vec<u32> = self.neighbor_iter(v).collect();
+                    let (q, q_hint) = (self.he.position(v), self.hint[v as usize]);
+                    let near = self
+                        .input_near(q, p, &ring, q_hint, i, limit, input, &mut stamp, generation);
                     let p_face = input_face[i as usize];
-                    if !self.fan_move_keeps_distances(
-                        v, p, p_face, &near, &far_face, limit, far_d2, input,
+                    let (tris, hints, faces) = self.fan_move(v, p, p_face);
+                    if !self.move_keeps_distances(
+                        [&tris[0], &tris[1]],
+                        [&hints[0], &hints[1]],
+                        &faces,
+                        &near,
+                        &far_face,
+                        limit,
+                        far_d2,
+                        input,
                     ) {
                         continue;
                     }
@@ -1220,15 +1231,10 @@ impl State<'_> {
             }
             let x = |u: u32| self.he.position(u);
             let mid = vec3::lerp(x(a), x(b), 0.5);
-            let quads = |m: V3| {
-                vec![
-                    [x(a), m, x(c)],
-                    [m, x(b), x(c)],
-                    [x(b), m, x(d)],
-                    [m, x(a), x(d)],
-                ]
-            };
-            let (before, after) = (quads(mid), quads(p));
+            let (before, after) = (
+                split_triangles([a, b, c, d], mid, x),
+                split_triangles([a, b, c, d], p, x),
+            );
             let (nf, ng) = (
                 self.he.face_normal_raw(h / 3),
                 self.he.face_normal_raw(g / 3),
@@ -1245,15 +1251,10 @@ impl State<'_> {
                 continue;
             }
             let hint = |u: u32| self.hint[u as usize];
-            let hints = |m: u32| {
-                vec![
-                    [hint(a), m, hint(c)],
-                    [m, hint(b), hint(c)],
-                    [hint(b), m, hint(d)],
-                    [m, hint(a), hint(d)],
-                ]
-            };
-            let (hints_before, hints_after) = (hints(hint(a)), hints(p_face));
+            let (hints_before, hints_after) = (
+                split_triangles([a, b, c, d], hint(a), hint),
+                split_triangles([a, b, c, d], p_face, hint),
+            );
             *generation += 1;
             let near = self.input_near(
                 mid,
@@ -1302,39 +1303,11 @@ impl State<'_> {
             .collect()
     }
 
-    /// The input vertices whose distance from the triangles of `v` may change when `v` moves
-    /// to `p`: those within the reach of the fan at either position (its longest spoke plus
-    /// `limit`) of either position, found by a breadth-first search over the input's edges
-    /// from input vertex `i`, the input face `v` was projected onto and those of its
-    /// neighbours.
-    #[allow(clippy::too_many_arguments)]
-    fn input_near_fan(
-        &self,
-        v: u32,
-        p: V3,
-        i: u32,
-        limit: f64,
-        input: &TriMesh,
-        stamp: &mut [u32],
-        generation: u32,
-    ) -> Vec<u32> {
-        let ring: Vec<u32> = self.neighbor_iter(v).collect();
-        let q = self.he.position(v);
-        self.input_near(
-            q,
-            p,
-            &ring,
-            self.hint[v as usize],
-            i,
-            limit,
-            input,
-            stamp,
-            generation,
-        )
-    }
-
-    /// [`State::input_near_fan`] for a fan with centre `q` (projected onto input face
-    /// `q_hint`) moving to `p`, around the vertices `ring`.
+    /// The input vertices whose distance from a fan of triangles may change when its centre
+    /// moves from `q` to `p` (the fan's other corners: `ring`): those within the reach of the
+    /// fan at either position (its longest spoke plus `limit`) of either position, found by a
+    /// breadth-first search over the input's edges from input vertex `i`, the input face the
+    /// centre was projected onto (`q_hint`) and those of the ring's vertices.
     #[allow(clippy::too_many_arguments)]
     fn input_near(
         &self,
@@ -1383,45 +1356,37 @@ impl State<'_> {
         found
     }
 
-    /// Whether moving `v` to `p` leaves every input vertex of `near` within the larger of its
-    /// old distance from the fan of `v` and `limit` (or within [`FAR_TRADE`] times the
-    /// distance `√far_d2` of the point pulled in), and seven points of each fan triangle
-    /// (centroid, thirds of the sides) within the larger of their old distance from the
-    /// input surface and `limit`.
-    #[allow(clippy::too_many_arguments)]
-    fn fan_move_keeps_distances(
+    /// The triangles of `v` before and after it moves to `p` (projected onto input face
+    /// `p_face`), the input faces their corners were projected onto, and their faces: the
+    /// arguments of [`State::move_keeps_distances`].
+    #[allow(clippy::type_complexity)]
+    fn fan_move(
         &self,
         v: u32,
         p: V3,
         p_face: u32,
-        near: &[u32],
-        far_face: &[u32],
-        limit: f64,
-        far_d2: f64,
-        input: &TriMesh,
-    ) -> bool {
+    ) -> ([Vec<[V3; 3]>; 2], [Vec<[u32; 3]>; 2], Vec<u32>) {
         let position = |u: u32| self.he.position(u);
-        let before = self.fan_corners(v, position(v), position);
-        let after = self.fan_corners(v, p, position);
-        let fan_faces: Vec<u32> = self.he.outgoing(v).map(halfedge::face_of).collect();
-        let hints_of = |moved: u32| self.fan_corners(v, moved, |u| self.hint[u as usize]);
-        let hints_before = hints_of(self.hint[v as usize]);
-        let hints_after = hints_of(p_face);
-        self.move_keeps_distances(
-            [&before, &after],
-            [&hints_before, &hints_after],
-            &fan_faces,
-            near,
-            far_face,
-            limit,
-            far_d2,
-            input,
+        let hint = |u: u32| self.hint[u as usize];
+        (
+            [
+                self.fan_corners(v, position(v), position),
+                self.fan_corners(v, p, position),
+            ],
+            [
+                self.fan_corners(v, hint(v), hint),
+                self.fan_corners(v, p_face, hint),
+            ],
+            self.he.outgoing(v).map(halfedge::face_of).collect(),
         )
     }
 
-    /// [`State::fan_move_keeps_distances`] for triangles `tris[0]` becoming `tris[1]` (the
-    /// input faces their corners were projected onto in `hints`), which replace the faces
-    /// `fan_faces`.
+    /// Whether the triangles `tris[0]` becoming `tris[1]` (the input faces their corners were
+    /// projected onto in `hints`; they replace the faces `fan_faces`) leave every input vertex
+    /// of `near` within the larger of its old distance from them and `limit` (or within
+    /// [`FAR_TRADE`] times the distance `√far_d2` of the point pulled in), and seven points of
+    /// each new triangle (centroid, thirds of the sides) within the larger of their old
+    /// distance from the input surface and `limit`.
     #[allow(clippy::too_many_arguments)]
     fn move_keeps_distances(
         &self,
@@ -1938,7 +1903,7 @@ impl State<'_> {
 const FAR_POINT: f64 = 0.3;
 
 /// How far, relative to the far point pulled in, a point the pull uncovers may end up from
-/// the output ([`State::fan_move_keeps_distances`]).
+/// the output ([`State::move_keeps_distances`]).
 const FAR_TRADE: f64 = 0.7;
 
 /// Cosine of 30°, the smallest angle a vertex pulled onto a far input point may leave in
@@ -1965,6 +1930,14 @@ const COS_COLLAPSE_MIN_ANGLE: f64 = 0.939_692_620_785_908_4;
 
 /// Cosine of the smallest interior angle of triangle (a, b, c) (1 when degenerate): the angle
 /// opposite the shortest side, by the law of cosines.
+/// The triangles (a, m, c), (m, b, c), (b, m, d), (m, a, d) that replace (a, b, c) and
+/// (b, a, d) when the edge a–b is split at a new vertex, each corner mapped by `value` and the
+/// new vertex given as `m`.
+fn split_triangles<T: Copy>([a, b, c, d]: [u32; 4], m: T, value: impl Fn(u32) -> T) -> Vec<[T; 3]> {
+    let [a, b, c, d] = [a, b, c, d].map(value);
+    vec![[a, m, c], [m, b, c], [b, m, d], [m, a, d]]
+}
+
 fn min_angle_cos(a: V3, b: V3, c: V3) -> f64 {
     let d2 = |x: V3, y: V3| {
         let d = vec3::sub(x, y);

@@ -80,29 +80,37 @@ fn cube(n: usize) -> TriMesh {
 }
 
 /// The unit square, n × n, lifted by a gentle bump (an open surface with a boundary).
-fn bumpy_square(n: usize) -> TriMesh {
-    let mut pos = Vec::new();
-    for j in 0..=n {
-        for i in 0..=n {
-            let (x, y) = (i as f64 / n as f64, j as f64 / n as f64);
-            // Exactly zero on the boundary.
-            let z = if i == 0 || j == 0 || i == n || j == n {
-                0.0
-            } else {
-                0.1 * (std::f64::consts::PI * x).sin() * (std::f64::consts::PI * y).sin()
-            };
-            pos.push([x, y, z]);
-        }
-    }
-    let id = |i: usize, j: usize| (j * (n + 1) + i) as u32;
-    let mut tri = Vec::new();
-    for j in 0..n {
-        for i in 0..n {
-            tri.push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
-            tri.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
-        }
-    }
+/// An `nx × ny` grid of squares, each split into two triangles, with vertex `(i, j)` at
+/// `at(i, j)`.
+fn grid(nx: usize, ny: usize, at: impl Fn(usize, usize) -> V3) -> TriMesh {
+    let pos = (0..=ny)
+        .flat_map(|j| (0..=nx).map(move |i| (i, j)))
+        .map(|(i, j)| at(i, j))
+        .collect();
+    let id = |i: usize, j: usize| (j * (nx + 1) + i) as u32;
+    let tri = (0..ny)
+        .flat_map(|j| (0..nx).map(move |i| (i, j)))
+        .flat_map(|(i, j)| {
+            [
+                [id(i, j), id(i + 1, j), id(i + 1, j + 1)],
+                [id(i, j), id(i + 1, j + 1), id(i, j + 1)],
+            ]
+        })
+        .collect();
     TriMesh::new(pos, tri)
+}
+
+fn bumpy_square(n: usize) -> TriMesh {
+    grid(n, n, |i, j| {
+        let (x, y) = (i as f64 / n as f64, j as f64 / n as f64);
+        // Exactly zero on the boundary.
+        let z = if i == 0 || j == 0 || i == n || j == n {
+            0.0
+        } else {
+            0.1 * (std::f64::consts::PI * x).sin() * (std::f64::consts::PI * y).sin()
+        };
+        [x, y, z]
+    })
 }
 
 /// Symmetric Hausdorff distance, sampled: the vertices and face centroids of each mesh,
@@ -857,23 +865,11 @@ fn far_points_between_boundary_vertices_get_a_new_vertex() {
         let r2 = (x - 0.3) * (x - 0.3) + (y - 0.05) * (y - 0.05);
         0.036 * (-r2 / (2.0 * 0.012 * 0.012)).exp()
     };
-    let mut pos = Vec::new();
-    for j in 0..=ny {
-        for i in 0..=nx {
-            let (x, y) = (w * i as f64 / nx as f64, h * j as f64 / ny as f64);
-            let z = if j == 0 || j == ny { 0.0 } else { bump(x, y) };
-            pos.push([x, y, z]);
-        }
-    }
-    let id = |i: usize, j: usize| (j * (nx + 1) + i) as u32;
-    let mut tri = Vec::new();
-    for j in 0..ny {
-        for i in 0..nx {
-            tri.push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
-            tri.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
-        }
-    }
-    let strip = TriMesh::new(pos, tri);
+    let strip = grid(nx, ny, |i, j| {
+        let (x, y) = (w * i as f64 / nx as f64, h * j as f64 / ny as f64);
+        let z = if j == 0 || j == ny { 0.0 } else { bump(x, y) };
+        [x, y, z]
+    });
     let params = IsotropicParams {
         sharp_edges: false,
         ..abs(l)
