@@ -40,6 +40,19 @@ impl Par {
             Par::Rayon => (0..n).into_par_iter().map(f).collect(),
         }
     }
+
+    /// Runs `f` on every index of `0..n`, in parallel when `self` is `Rayon` (for tasks that
+    /// write disjoint parts of a shared output).
+    pub fn for_each<F>(self, n: usize, f: F)
+    where
+        F: Fn(usize) + Sync + Send,
+    {
+        use rayon::prelude::*;
+        match self {
+            Par::Seq => (0..n).for_each(f),
+            Par::Rayon => (0..n).into_par_iter().for_each(f),
+        }
+    }
 }
 
 /// One problem with a parameter value, found by [`Validate`]. `field` is the parameter's name

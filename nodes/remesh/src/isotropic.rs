@@ -735,13 +735,11 @@ impl State<'_> {
                 continue;
             }
             let q = |u: u32| if u == v { p } else { self.he.position(u) };
-            let n_old = self.he.face_normal_raw(f);
-            let n_new = vec3::cross(vec3::sub(q(t[1]), q(t[0])), vec3::sub(q(t[2]), q(t[0])));
-            let (lo, ln) = (vec3::norm(n_old), vec3::norm(n_new));
-            if !(ln > 1e-12 * lo) || vec3::dot(n_old, n_new) < cos_max * lo * ln {
+            let moved = t.map(q);
+            if !keeps_orientation(self.he.face_normal_raw(f), moved, cos_max) {
                 return false;
             }
-            *new = new.max(min_angle_cos(q(t[0]), q(t[1]), q(t[2])));
+            *new = new.max(min_angle_cos(moved[0], moved[1], moved[2]));
         }
         true
     }
@@ -1239,12 +1237,8 @@ impl State<'_> {
                 self.he.face_normal_raw(h / 3),
                 self.he.face_normal_raw(g / 3),
             );
-            let shape_ok = after.iter().enumerate().all(|(k, t)| {
-                let n_old = if k < 2 { nf } else { ng };
-                let n_new = vec3::cross(vec3::sub(t[1], t[0]), vec3::sub(t[2], t[0]));
-                let (lo, ln) = (vec3::norm(n_old), vec3::norm(n_new));
-                ln > 1e-12 * lo
-                    && vec3::dot(n_old, n_new) >= self.cos_turn * lo * ln
+            let shape_ok = after.iter().enumerate().all(|(k, &t)| {
+                keeps_orientation(if k < 2 { nf } else { ng }, t, self.cos_turn)
                     && min_angle_cos(t[0], t[1], t[2]) <= COS_FAR_MOVE_MIN_ANGLE
             });
             if !shape_ok {
@@ -1930,6 +1924,15 @@ const COS_COLLAPSE_MIN_ANGLE: f64 = 0.939_692_620_785_908_4;
 
 /// Cosine of the smallest interior angle of triangle (a, b, c) (1 when degenerate): the angle
 /// opposite the shortest side, by the law of cosines.
+/// Whether triangle `t` keeps a non-degenerate area and turns by at most the angle whose
+/// cosine is `cos_max` from the (unnormalised) normal `n_old` of the face it replaces.
+#[inline]
+fn keeps_orientation(n_old: V3, t: [V3; 3], cos_max: f64) -> bool {
+    let n_new = vec3::cross(vec3::sub(t[1], t[0]), vec3::sub(t[2], t[0]));
+    let (lo, ln) = (vec3::norm(n_old), vec3::norm(n_new));
+    ln > 1e-12 * lo && vec3::dot(n_old, n_new) >= cos_max * lo * ln
+}
+
 /// The triangles (a, m, c), (m, b, c), (b, m, d), (m, a, d) that replace (a, b, c) and
 /// (b, a, d) when the edge a–b is split at a new vertex, each corner mapped by `value` and the
 /// new vertex given as `m`.

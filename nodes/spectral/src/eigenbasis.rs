@@ -291,13 +291,7 @@ fn a_x_into(
         };
         matmul(ym, accum, am, mref(x, p, q), alpha, faer::Par::Seq);
     };
-    match par {
-        Par::Seq => (0..chunks).for_each(body),
-        Par::Rayon => {
-            use rayon::prelude::*;
-            (0..chunks).into_par_iter().for_each(body)
-        }
-    }
+    par.for_each(chunks, body);
 }
 
 /// A raw pointer that may cross threads (disjoint writes only, see [`a_x_into`]).
@@ -410,13 +404,7 @@ fn mul_right_in_place(w: &mut [f64], q: usize, t: &[f64], n: usize, par: Par) {
         );
         wm.copy_from(&tmp);
     };
-    match par {
-        Par::Seq => (0..chunks).for_each(body),
-        Par::Rayon => {
-            use rayon::prelude::*;
-            (0..chunks).into_par_iter().for_each(body)
-        }
-    }
+    par.for_each(chunks, body);
 }
 
 /// `C = Vᵀ M W` and `W −= V C` (one classical Gram–Schmidt pass); returns C (p × q). The
