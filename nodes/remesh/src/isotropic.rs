@@ -85,6 +85,7 @@ use crestflow_geom::{FeatureCurveNetwork, TriMesh};
 use crate::chain::Chain;
 use crate::features::{build_chains, mark_features, prune_short_sharp_chains, FeatureError};
 use crate::project::Projector;
+use crate::tips::tip_vertices;
 
 /// Parameters of `remesh.isotropic`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -332,12 +333,22 @@ fn isotropic_with(
         params.corner_angle_deg,
     );
     let topo = mesh.topology();
+    // Tips narrower than the target become fixed vertices (see `tips`), unless they are
+    // feature vertices already.
+    let on_feature: Vec<bool> = (0..mesh.n_vertices())
+        .map(|v| chains.is_corner[v] || chains.vertex_chain[v] != u32::MAX)
+        .collect();
+    let tips = tip_vertices(mesh, l, &on_feature, par);
+    let mut is_tip = vec![false; mesh.n_vertices()];
+    for &t in &tips {
+        is_tip[t as usize] = true;
+    }
 
     let mut st = State {
         he,
         role: (0..mesh.n_vertices())
             .map(|v| {
-                if chains.is_corner[v] {
+                if chains.is_corner[v] || is_tip[v] {
                     Role::Corner
                 } else if chains.vertex_chain[v] != u32::MAX {
                     Role::Chain(chains.vertex_chain[v])
@@ -446,6 +457,7 @@ fn isotropic_with(
             "feature_corners",
             chains.is_corner.iter().filter(|&&c| c).count(),
         )
+        .set("tip_vertices", tips.len())
         .set("splits", st.splits)
         .set("collapses", st.collapses)
         .set("flips", st.flips)
@@ -1648,7 +1660,20 @@ impl State<'_> {
         } else {
             match (0..n).find(|&i| tagged(i)) {
                 Some(i) => i,
-                None => return 6,
+                None => {
+                    // A tip (a corner without feature edges): its whole fan is one sector,
+                    // closed around the apex, so at least three triangles.
+                    let p = self.he.position(v);
+                    let total: f64 = hs
+                        .iter()
+                        .map(|&h| {
+                            let u = vec3::sub(self.he.position(self.he.to(h)), p);
+                            let w = vec3::sub(self.he.position(self.he.from(halfedge::prev(h))), p);
+                            crestflow_geom::mesh::corner_angle(u, w)
+                        })
+                        .sum();
+                    return ((total / (std::f64::consts::PI / 3.0)).round() as i64).max(3);
+                }
             }
         };
         let p = self.he.position(v);
@@ -1968,7 +1993,7 @@ pub struct IsotropicNode;
 impl NodeKind for IsotropicNode {
     type Params = IsotropicParams;
     const KIND: &'static str = "remesh.isotropic";
-    const VERSION: u32 = 10;
+    const VERSION: u32 = 11;
     const DOC: &'static str = "Isotropic remeshing at a target edge length (Botsch & Kobbelt \
         2004, thesis §5.1.1): splits > 4/3 L, collapses < 4/5 L, valence-improving flips, \
         tangential relaxation and projection onto the input surface, for `iterations` rounds. \
@@ -1979,11 +2004,13 @@ impl NodeKind for IsotropicNode {
         polyline, not the zig-zag edge path they snap to), feature edges are never flipped \
         and collapse only along themselves, and no output feature edge strays more than \
         feature_tolerance · L from the polyline it replaces (bends are kept); with \
-        feature_grading > 0 the target shrinks near bends that need shorter edges. Flips and \
+        feature_grading > 0 the target shrinks near bends that need shorter edges. Tips \
+        narrower than the target (a disk of radius L/2 closing the surface by at least pi, \
+        e.g. the end of a finger) keep a fixed vertex at their apex. Flips and \
         collapses do not create angles below 30° / 20° unless the old ones were smaller. \
         Vertices return to the input by a walk from their last face (BVH fallback). `target` \
         is a fraction of the bbox diagonal (relative: true) or absolute. Outputs the mesh and \
-        a Report (vertices_out, feature_edges_in/out, feature_chains_from_curves, splits, \
+        a Report (vertices_out, feature_edges_in/out, feature_chains_from_curves, tip_vertices, splits, \
         collapses, flips, projections, projection_fallbacks, target_abs).";
 
     fn inputs() -> Vec<Port> {

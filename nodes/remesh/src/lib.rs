@@ -6,7 +6,8 @@
 //!   tangential relaxation with projection onto the input surface, keeping feature edges
 //!   (from a [`FeatureCurveNetwork`](crestflow_geom::FeatureCurveNetwork), sharp dihedral
 //!   angles and boundaries) in the output; feature vertices slide along their chain
-//!   ([`chain`]: arc-length parametrised feature polylines) without cutting its bends.
+//!   ([`chain`]: arc-length parametrised feature polylines) without cutting its bends;
+//!   tips narrower than the target keep a vertex at their apex ([`tips`]).
 //! - `remesh.sharp_edges` ([`sharp_edges`]): those sharp-edge and boundary chains as a feature
 //!   curve network (the features of CAD meshes, e.g. for the symmetry nodes).
 
@@ -21,6 +22,7 @@ pub mod features;
 pub mod isotropic;
 pub mod project;
 pub mod sharp_edges;
+pub mod tips;
 
 pub use isotropic::{isotropic, IsotropicNode, IsotropicParams, RemeshError, RemeshOutput};
 pub use sharp_edges::{sharp_edges, SharpEdgesNode, SharpEdgesParams};
