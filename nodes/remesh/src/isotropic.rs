@@ -1655,26 +1655,13 @@ impl State<'_> {
             return 6;
         }
         let tagged = |i: usize| self.he.tag(hs[i % n]) != NONE;
-        let start = if boundary {
+        // A corner without feature edges is a tip: its whole fan is one sector, closed around
+        // the apex.
+        let tip = !boundary && !(0..n).any(tagged);
+        let start = if boundary || tip {
             0
         } else {
-            match (0..n).find(|&i| tagged(i)) {
-                Some(i) => i,
-                None => {
-                    // A tip (a corner without feature edges): its whole fan is one sector,
-                    // closed around the apex, so at least three triangles.
-                    let p = self.he.position(v);
-                    let total: f64 = hs
-                        .iter()
-                        .map(|&h| {
-                            let u = vec3::sub(self.he.position(self.he.to(h)), p);
-                            let w = vec3::sub(self.he.position(self.he.from(halfedge::prev(h))), p);
-                            crestflow_geom::mesh::corner_angle(u, w)
-                        })
-                        .sum();
-                    return ((total / (std::f64::consts::PI / 3.0)).round() as i64).max(3);
-                }
-            }
+            (0..n).find(|&i| tagged(i)).unwrap_or(0)
         };
         let p = self.he.position(v);
         let sixty = std::f64::consts::PI / 3.0;
@@ -1684,7 +1671,7 @@ impl State<'_> {
             let u = vec3::sub(self.he.position(self.he.to(h)), p);
             let w = vec3::sub(self.he.position(self.he.from(halfedge::prev(h))), p);
             acc += crestflow_geom::mesh::corner_angle(u, w);
-            let closes = if boundary {
+            let closes = if boundary || tip {
                 i + 1 == n || tagged(i + 1)
             } else {
                 tagged(i + 1)
@@ -1693,6 +1680,10 @@ impl State<'_> {
                 tris += ((acc / sixty).round() as i64).max(1);
                 acc = 0.0;
             }
+        }
+        if tip {
+            // At least three triangles close a cone.
+            return tris.max(3);
         }
         tris + boundary as i64
     }
