@@ -38,7 +38,9 @@
 //! moved the vertices, and a free vertex of a triangle still below 30° moves to the best of
 //! a few nearby positions on the input surface when that raises the smallest angle of its
 //! triangles and they stay within 15° of their mean normal (beside curved features, whose
-//! bends pin short feature edges; on curved patches such moves cost accuracy). Last, where
+//! bends pin short feature edges; on curved patches such moves cost accuracy). Those moves
+//! change which flips raise a pair's smallest angle (a free vertex fanning over short
+//! boundary edges ends up beside them), so the flip sweep and the moves run once more. Last, where
 //! the output cuts off a tip or a thin rim of the input by more than 0.3 L (the bunny's ears
 //! at 2 %, by 0.84 L before this step), a free vertex of the closest output triangle moves
 //! onto the cut-off input vertex (or, when all three corners are feature vertices, a free
@@ -425,6 +427,11 @@ fn isotropic_with(
         st.collapse_slivers();
         // Relaxation moved the vertices since the last flips: one more flip sweep.
         check()?;
+        st.equalize_valences(par, false);
+        st.improve_sliver_vertices();
+        // The vertex moves change which flips raise the smallest angle of a pair (a free
+        // vertex fanning over short boundary edges ends up beside them): flip once more and
+        // move again.
         st.equalize_valences(par, false);
         st.improve_sliver_vertices();
         check()?;
@@ -1984,7 +1991,7 @@ pub struct IsotropicNode;
 impl NodeKind for IsotropicNode {
     type Params = IsotropicParams;
     const KIND: &'static str = "remesh.isotropic";
-    const VERSION: u32 = 11;
+    const VERSION: u32 = 12;
     const DOC: &'static str = "Isotropic remeshing at a target edge length (Botsch & Kobbelt \
         2004, thesis §5.1.1): splits > 4/3 L, collapses < 4/5 L, valence-improving flips, \
         tangential relaxation and projection onto the input surface, for `iterations` rounds. \
