@@ -46,7 +46,10 @@
 //! onto the cut-off input vertex (or, when all three corners are feature vertices, a free
 //! neighbour of them) when its triangles keep angles of at least 30° and no point around
 //! them ends up farther from the input than 0.3 L, than before, or than 0.7 times the
-//! distance of the point pulled in.
+//! distance of the point pulled in. Where no vertex may move, an edge of that triangle is
+//! split with the new vertex on the input point, under the same tests; a new triangle below
+//! 30° may be flipped with its neighbour across the side opposite the new vertex (the only
+//! way between two rows of fixed vertices).
 //!
 //! With `feature_grading` > 0 the target is local: L, except near stretches of feature chain
 //! whose bends only allow shorter edges (their [`Chain::edge_capacity`] under the tolerance),
@@ -1207,7 +1210,10 @@ impl State<'_> {
     /// that are neither features nor on the boundary, the one whose middle is nearest first,
     /// under the same conditions as a moved vertex (the four triangles turn by at most 60°
     /// from the two they replace, their smallest angle is at least 30°, nothing near ends
-    /// up farther). Returns the new vertex.
+    /// up farther). A new triangle below that angle may instead be flipped with its
+    /// neighbour across its side opposite the new vertex (the new vertex then reaches one
+    /// vertex further; between two rows of fixed vertices that is the only way to keep the
+    /// angles). Returns the new vertex.
     #[allow(clippy::too_many_arguments)]
     fn split_toward(
         &mut self,
@@ -1237,42 +1243,41 @@ impl State<'_> {
             .collect();
         edges.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         let p_face = input_face[i as usize];
-        for (_, h) in edges {
-            // Faces (a, b, c) and (b, a, d) become (a, m, c), (m, b, c), (b, m, d), (m, a, d).
-            let g = self.he.opp(h);
-            let (a, b) = (self.he.from(h), self.he.to(h));
-            let c = self.he.from(halfedge::prev(h));
-            let d = self.he.from(halfedge::prev(g));
-            if [a, b, c, d].iter().any(|&u| blocked[u as usize]) {
+        for &(_, h) in &edges {
+            let Some(plan) = self.plan_split(h, p, blocked) else {
                 continue;
-            }
-            let x = |u: u32| self.he.position(u);
-            let mid = vec3::lerp(x(a), x(b), 0.5);
-            let (before, after) = (
-                split_triangles([a, b, c, d], mid, x),
-                split_triangles([a, b, c, d], p, x),
-            );
-            let (nf, ng) = (
-                self.he.face_normal_raw(h / 3),
-                self.he.face_normal_raw(g / 3),
-            );
-            let shape_ok = after.iter().enumerate().all(|(k, &t)| {
-                keeps_orientation(if k < 2 { nf } else { ng }, t, self.cos_turn)
-                    && min_angle_cos(t[0], t[1], t[2]) <= COS_FAR_MOVE_MIN_ANGLE
-            });
-            if !shape_ok {
-                continue;
-            }
+            };
             let hint = |u: u32| self.hint[u as usize];
-            let (hints_before, hints_after) = (
-                split_triangles([a, b, c, d], hint(a), hint),
-                split_triangles([a, b, c, d], p_face, hint),
-            );
+            let hints_of = |t: &[u32; 3]| t.map(|u| if u == NONE { p_face } else { hint(u) });
+            let x = |u: u32| if u == NONE { p } else { self.he.position(u) };
+            let (a, b) = (self.he.from(h), self.he.to(h));
+            let mid = vec3::lerp(x(a), x(b), 0.5);
+            // Before: the two faces (as split at the middle of the edge, the same surface)
+            // and the flipped neighbours; after: the planned triangles.
+            let before: Vec<[V3; 3]> = plan
+                .before
+                .iter()
+                .map(|t| t.map(|u| if u == NONE { mid } else { x(u) }))
+                .collect();
+            let hints_before: Vec<[u32; 3]> = plan
+                .before
+                .iter()
+                .map(|t| t.map(|u| if u == NONE { hint(a) } else { hint(u) }))
+                .collect();
+            let after: Vec<[V3; 3]> = plan.after.iter().map(|t| t.map(x)).collect();
+            let hints_after: Vec<[u32; 3]> = plan.after.iter().map(hints_of).collect();
+            let corners: Vec<u32> = plan
+                .after
+                .iter()
+                .flatten()
+                .copied()
+                .filter(|&u| u != NONE)
+                .collect();
             *generation += 1;
             let near = self.input_near(
                 mid,
                 p,
-                &[a, b, c, d],
+                &corners,
                 hint(a),
                 i,
                 limit,
@@ -1283,7 +1288,7 @@ impl State<'_> {
             if !self.move_keeps_distances(
                 [&before, &after],
                 [&hints_before, &hints_after],
-                &[h / 3, g / 3],
+                &plan.faces,
                 &near,
                 far_face,
                 limit,
@@ -1299,9 +1304,79 @@ impl State<'_> {
             self.size
                 .push(0.5 * (self.size[a as usize] + self.size[b as usize]));
             self.splits += 1;
+            for (u, w) in plan.flips {
+                let e = self.he.find_edge(u, w);
+                if e != NONE && self.he.flip_ok(e) {
+                    self.he.flip(e);
+                    self.flips += 1;
+                }
+            }
             return Some(m);
         }
         None
+    }
+
+    /// The triangles that splitting the edge of `h` at `p` would make (the new vertex written
+    /// `NONE`), with the outer sides of those below 30° flipped (see [`State::split_toward`]);
+    /// `None` when they cannot all keep 30° and turn by at most 60°.
+    fn plan_split(&self, h: u32, p: V3, blocked: &[bool]) -> Option<SplitPlan> {
+        let g = self.he.opp(h);
+        let (a, b) = (self.he.from(h), self.he.to(h));
+        let c = self.he.from(halfedge::prev(h));
+        let d = self.he.from(halfedge::prev(g));
+        if [a, b, c, d].iter().any(|&u| blocked[u as usize]) {
+            return None;
+        }
+        let x = |u: u32| if u == NONE { p } else { self.he.position(u) };
+        let (nf, ng) = (
+            self.he.face_normal_raw(h / 3),
+            self.he.face_normal_raw(g / 3),
+        );
+        let mut plan = SplitPlan {
+            before: vec![[a, b, c], [b, a, d]],
+            after: Vec::new(),
+            faces: vec![h / 3, g / 3],
+            flips: Vec::new(),
+        };
+        // (m, u, w) with the side u → w opposite the new vertex m, and that side's half-edge
+        // in the faces being split: (a, m, c), (m, b, c), (b, m, d), (m, a, d).
+        let sides = [
+            (c, a, halfedge::prev(h), nf),
+            (b, c, halfedge::next(h), nf),
+            (d, b, halfedge::prev(g), ng),
+            (a, d, halfedge::next(g), ng),
+        ];
+        for (u, w, o, n_old) in sides {
+            let t = [NONE, u, w];
+            let shape = |t: [u32; 3], n: V3| {
+                let q = t.map(x);
+                keeps_orientation(n, q, self.cos_turn)
+                    && min_angle_cos(q[0], q[1], q[2]) <= COS_FAR_MOVE_MIN_ANGLE
+            };
+            if shape(t, n_old) {
+                plan.after.push(t);
+                continue;
+            }
+            // Flip u–w: (m, u, w) and (w, u, e) become (m, u, e) and (m, e, w).
+            let o2 = self.he.opp(o);
+            if self.he.tag(o) != NONE || o2 == NONE || self.he.tag(o2) != NONE {
+                return None;
+            }
+            let e = self.he.from(halfedge::prev(o2));
+            if [a, b, c, d].contains(&e) || blocked[e as usize] {
+                return None;
+            }
+            let n_e = self.he.face_normal_raw(o2 / 3);
+            let (t1, t2) = ([NONE, u, e], [NONE, e, w]);
+            if !(shape(t1, n_old) && shape(t1, n_e) && shape(t2, n_old) && shape(t2, n_e)) {
+                return None;
+            }
+            plan.before.push([w, u, e]);
+            plan.faces.push(o2 / 3);
+            plan.after.extend([t1, t2]);
+            plan.flips.push((u, w));
+        }
+        Some(plan)
     }
 
     /// The triangles around `v`, each corner mapped by `value`, `v` itself to `at`.
@@ -1915,6 +1990,16 @@ impl State<'_> {
     }
 }
 
+/// What [`State::split_toward`] would do to one edge: the triangles it replaces (`NONE` for
+/// the middle of the split edge) and makes (`NONE` for the new vertex), the faces it
+/// replaces, and the sides (vertex pairs) it flips after the split.
+struct SplitPlan {
+    before: Vec<[u32; 3]>,
+    after: Vec<[u32; 3]>,
+    faces: Vec<u32>,
+    flips: Vec<(u32, u32)>,
+}
+
 /// Distance from the output, in target lengths, beyond which an input vertex pulls the
 /// output onto itself ([`State::pull_to_far_points`]).
 const FAR_POINT: f64 = 0.3;
@@ -1956,14 +2041,6 @@ fn keeps_orientation(n_old: V3, t: [V3; 3], cos_max: f64) -> bool {
     ln > 1e-12 * lo && vec3::dot(n_old, n_new) >= cos_max * lo * ln
 }
 
-/// The triangles (a, m, c), (m, b, c), (b, m, d), (m, a, d) that replace (a, b, c) and
-/// (b, a, d) when the edge a–b is split at a new vertex, each corner mapped by `value` and the
-/// new vertex given as `m`.
-fn split_triangles<T: Copy>([a, b, c, d]: [u32; 4], m: T, value: impl Fn(u32) -> T) -> Vec<[T; 3]> {
-    let [a, b, c, d] = [a, b, c, d].map(value);
-    vec![[a, m, c], [m, b, c], [b, m, d], [m, a, d]]
-}
-
 fn min_angle_cos(a: V3, b: V3, c: V3) -> f64 {
     let d2 = |x: V3, y: V3| {
         let d = vec3::sub(x, y);
@@ -1991,7 +2068,7 @@ pub struct IsotropicNode;
 impl NodeKind for IsotropicNode {
     type Params = IsotropicParams;
     const KIND: &'static str = "remesh.isotropic";
-    const VERSION: u32 = 12;
+    const VERSION: u32 = 13;
     const DOC: &'static str = "Isotropic remeshing at a target edge length (Botsch & Kobbelt \
         2004, thesis §5.1.1): splits > 4/3 L, collapses < 4/5 L, valence-improving flips, \
         tangential relaxation and projection onto the input surface, for `iterations` rounds. \

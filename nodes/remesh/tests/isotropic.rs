@@ -926,24 +926,60 @@ fn sideways_flips_make_most_vertices_regular() {
     }
 }
 
+/// The strip of `far_points_between_boundary_vertices_get_a_new_vertex`: one target length
+/// (0.1) wide, with a bump 0.036 high in its middle.
+fn bumped_strip() -> TriMesh {
+    let (nx, ny) = (150, 25);
+    let bump = |x: f64, y: f64| {
+        let r2 = (x - 0.3) * (x - 0.3) + (y - 0.05) * (y - 0.05);
+        0.036 * (-r2 / (2.0 * 0.012 * 0.012)).exp()
+    };
+    grid(nx, ny, |i, j| {
+        let (x, y) = (0.6 * i as f64 / nx as f64, 0.1 * j as f64 / ny as f64);
+        let z = if j == 0 || j == ny { 0.0 } else { bump(x, y) };
+        [x, y, z]
+    })
+}
+
+#[test]
+fn far_points_between_boundary_vertices_get_a_new_vertex_whatever_the_input_order() {
+    // In some orders the strip's rows of boundary vertices fall so that every split under
+    // the bump leaves a triangle just below 30° (28.9°: a new vertex 0.36 L high between a
+    // bottom vertex and a top one 0.125 apart); version 12 then left the bump's top 0.36 L
+    // from the output (shuffle 4, measured). Flipping that triangle's outer side keeps 30°.
+    let strip = bumped_strip();
+    let l = 0.1;
+    let params = IsotropicParams {
+        sharp_edges: false,
+        ..abs(l)
+    };
+    for seed in 1..=4 {
+        let input = shuffled(&strip, seed);
+        let out = isotropic(&input, None, &params, Par::Seq).unwrap().mesh;
+        assert_manifold(&out);
+        let d = Bvh::new(&out).closest([0.3, 0.05, 0.036]).distance;
+        assert!(
+            d < 0.1 * l,
+            "order {seed}: the bump's top is {d} from the output"
+        );
+        let far = farthest_input_vertex(&input, &out);
+        assert!(
+            far < 0.3 * l,
+            "order {seed}: an input vertex is {far} from the output"
+        );
+        let lo = min_angle_deg(&out);
+        assert!(lo >= 30.0, "order {seed}: min angle {lo:.2}°");
+    }
+}
+
 #[test]
 fn far_points_between_boundary_vertices_get_a_new_vertex() {
     // A strip one target length wide (every output vertex on its boundary, none may move)
     // with a bump 0.36 L high in the middle: the triangles across the strip cut the bump off
     // (its top 0.36 L from the output without the split, measured) unless an edge across it
     // is split and the new vertex put on the bump's top.
-    let (nx, ny) = (150, 25);
-    let (w, h) = (0.6, 0.1);
     let l = 0.1;
-    let bump = |x: f64, y: f64| {
-        let r2 = (x - 0.3) * (x - 0.3) + (y - 0.05) * (y - 0.05);
-        0.036 * (-r2 / (2.0 * 0.012 * 0.012)).exp()
-    };
-    let strip = grid(nx, ny, |i, j| {
-        let (x, y) = (w * i as f64 / nx as f64, h * j as f64 / ny as f64);
-        let z = if j == 0 || j == ny { 0.0 } else { bump(x, y) };
-        [x, y, z]
-    });
+    let strip = bumped_strip();
     let params = IsotropicParams {
         sharp_edges: false,
         ..abs(l)
