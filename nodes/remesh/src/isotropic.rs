@@ -40,7 +40,7 @@
 //! triangles and they stay within 15° of their mean normal (beside curved features, whose
 //! bends pin short feature edges; on curved patches such moves cost accuracy). Those moves
 //! change which flips raise a pair's smallest angle (a free vertex fanning over short
-//! boundary edges ends up beside them), so the flip sweep and the moves run once more. Last, where
+//! feature edges ends up beside them), so the flip sweep and the moves run once more. Last, where
 //! the output cuts off a tip or a thin rim of the input by more than 0.3 L (the bunny's ears
 //! at 2 %, by 0.84 L before this step), a free vertex of the closest output triangle moves
 //! onto the cut-off input vertex (or, when all three corners are feature vertices, a free
@@ -433,7 +433,7 @@ fn isotropic_with(
         st.equalize_valences(par, false);
         st.improve_sliver_vertices();
         // The vertex moves change which flips raise the smallest angle of a pair (a free
-        // vertex fanning over short boundary edges ends up beside them): flip once more and
+        // vertex fanning over short feature edges ends up beside them): flip once more and
         // move again.
         st.equalize_valences(par, false);
         st.improve_sliver_vertices();
