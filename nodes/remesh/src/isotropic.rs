@@ -1363,7 +1363,12 @@ impl State<'_> {
                 return None;
             }
             let e = self.he.from(halfedge::prev(o2));
-            if [a, b, c, d].contains(&e) || blocked[e as usize] {
+            // A vertex the new one already reaches, or reaches through another flip (two
+            // sides of a valence-4 corner), would get a second edge to it.
+            if [a, b, c, d].contains(&e)
+                || blocked[e as usize]
+                || plan.after.iter().any(|t| t[1] == e || t[2] == e)
+            {
                 return None;
             }
             let n_e = self.he.face_normal_raw(o2 / 3);
