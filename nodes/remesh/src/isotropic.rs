@@ -21,7 +21,10 @@
 //!    than 5°, its corners' normals agree within 10° and no corner or neighbour of one is a
 //!    feature vertex): it moves a 5–7 pair by one edge, and pairs that meet one of the
 //!    opposite orientation cancel, which flips that must lower the deviation never do (the
-//!    bunny's valence-6 share 0.79 → 0.80–0.83). Each sweep visits every edge once;
+//!    bunny's valence-6 share 0.79 → 0.80–0.83). Each sweep visits every edge once. In the
+//!    last round and after it no split follows: there a flip may not make an edge longer than
+//!    the split length whose middle lies farther than `FAR_POINT`·L from the input (and than
+//!    the old edge's), a chord across a curved pair;
 //! 4. tangential relaxation: every free vertex moves to the area-weighted centroid of its
 //!    incident triangles' centroids, projected onto its tangent plane (feature vertices slide
 //!    along their chain, see below);
@@ -272,6 +275,9 @@ struct State<'a> {
     splits: usize,
     collapses: usize,
     flips: usize,
+    /// Set for the flips after which no split runs (the last round and after it): see
+    /// [`State::long_flip_leaves_surface`].
+    no_split_follows: bool,
 }
 
 fn isotropic_with(
@@ -379,6 +385,7 @@ fn isotropic_with(
         grading: params.feature_grading,
         l,
         max_turn: 60f64.to_radians(),
+        no_split_follows: false,
         cos_turn: 60f64.to_radians().cos(),
         splits: 0,
         collapses: 0,
@@ -409,8 +416,10 @@ fn isotropic_with(
         }
     }
 
-    for _ in 0..params.iterations {
+    for round in 0..params.iterations {
         check()?;
+        // The flips of the last round and after it are not followed by splits.
+        st.no_split_follows = round + 1 == params.iterations;
         if params.feature_grading > 0.0 {
             st.update_sizes();
         }
@@ -1775,6 +1784,28 @@ impl State<'_> {
         tris + boundary as i64
     }
 
+    /// Whether flipping the edge `a`–`b` to `c`–`d` makes an edge longer than the split length
+    /// whose middle lies farther than [`FAR_POINT`]·L from the input surface and farther than
+    /// the middle of `a`–`b`.
+    fn long_flip_leaves_surface(&self, a: u32, b: u32, c: u32, d: u32) -> bool {
+        let l2 = self.len2(c, d);
+        if l2 <= Self::split_len2(self.size[c as usize], self.size[d as usize])
+            || l2 <= self.len2(a, b)
+        {
+            return false;
+        }
+        let p = |v: u32| self.he.position(v);
+        let off = |u: u32, v: u32| {
+            let mid = vec3::lerp(p(u), p(v), 0.5);
+            self.proj
+                .project(mid, self.hint[u as usize], self.l)
+                .hit
+                .dist2
+        };
+        let new = off(c, d);
+        new > (FAR_POINT * self.l).powi(2) && new > off(a, b)
+    }
+
     /// One flip sweep (module docs, step 3). With `neutral`, a flip that leaves the valence
     /// deviation of an irregular quad unchanged is made as well: it moves a 5–7 pair
     /// one edge, and pairs that meet a pair of the opposite orientation cancel in later
@@ -1837,6 +1868,14 @@ impl State<'_> {
                 new < old - 1e-6
             };
             if !ok {
+                continue;
+            }
+            // After the last splits, a flip that makes an edge the split rule would cut may
+            // not put its middle farther than FAR_POINT·L from the input (where the far-point
+            // step counts the surface as cut off), unless the old edge's middle was farther: a
+            // long diagonal of a curved pair otherwise spans the surface as a chord (on the
+            // armadillo at 1 %, 0.46 L off it, the largest distance of the output).
+            if self.no_split_follows && self.long_flip_leaves_surface(a, b, c, d) {
                 continue;
             }
             // Keep the surface: no flip across a fold steeper than the collapse limit.
@@ -2073,7 +2112,7 @@ pub struct IsotropicNode;
 impl NodeKind for IsotropicNode {
     type Params = IsotropicParams;
     const KIND: &'static str = "remesh.isotropic";
-    const VERSION: u32 = 13;
+    const VERSION: u32 = 14;
     const DOC: &'static str = "Isotropic remeshing at a target edge length (Botsch & Kobbelt \
         2004, thesis §5.1.1): splits > 4/3 L, collapses < 4/5 L, valence-improving flips, \
         tangential relaxation and projection onto the input surface, for `iterations` rounds. \

@@ -997,3 +997,51 @@ fn far_points_between_boundary_vertices_get_a_new_vertex() {
         assert!(lo >= 30.0, "min angle {lo:.2}°");
     }
 }
+
+#[test]
+fn long_edges_left_after_the_last_splits_follow_the_surface() {
+    // The flips of the last round and after it are followed by no split: a flip that made an
+    // edge longer than the split length over a curved pair would leave it as a chord across
+    // the surface (0.45 L off the armadillo at 2 % before this rule, its largest distance).
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../../shared/data/meshes/organic/cgal_armadillo.off"
+    );
+    let Ok(loaded) = crestflow_geom::io::load_mesh(path, &Default::default()) else {
+        panic!("cannot read {path}");
+    };
+    let input = loaded.mesh;
+    let params = IsotropicParams {
+        target: 0.02,
+        ..Default::default()
+    };
+    let out = isotropic(&input, None, &params, Par::Rayon).unwrap();
+    assert_manifold(&out.mesh);
+    let l = out.report.num("target_abs").unwrap();
+    let bvh = Bvh::new(&input);
+    let m = &out.mesh;
+    let mut long = 0;
+    let mut worst: f64 = 0.0;
+    for t in &m.triangles {
+        for k in 0..3 {
+            let (a, b) = (
+                m.positions[t[k] as usize],
+                m.positions[t[(k + 1) % 3] as usize],
+            );
+            if vec3::dist(a, b) > 4.0 / 3.0 * l {
+                long += 1;
+                let mid = vec3::lerp(a, b, 0.5);
+                worst = worst.max(bvh.closest(mid).dist2.sqrt());
+            }
+        }
+    }
+    assert!(
+        long > 0,
+        "no edge above the split length: the test checks nothing"
+    );
+    assert!(
+        worst < 0.3 * l,
+        "a long edge's middle is {:.3} L off the input",
+        worst / l
+    );
+}
