@@ -1,0 +1,94 @@
+//! Triangular-solve benchmark: the sparse Cholesky solves of `SpdSolver` on the factor of
+//! `L + M` (cotangent Laplacian plus lumped mass) of a mesh, one right-hand side and a
+//! block of eight, on one thread. Prints the median time and nanoseconds per factor value
+//! (each value is read twice per solve: forward and backward).
+//!
+//! Usage: `cargo bench -p crestflow-nodes-spectral --bench solve -- [MESH | --sphere LEVEL]
+//! [--repeats N]` (default: unit icosphere of level 6).
+
+use std::time::Instant;
+
+use crestflow_flow::Par;
+use crestflow_geom::io::{load_mesh, LoadOptions};
+use crestflow_geom::shapes::sphere;
+use crestflow_nodes_spectral::sparse::{laplacian_and_mass, CsrMatrix, LaplacianOptions};
+use crestflow_nodes_spectral::SpdSolver;
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args()
+        .skip(1)
+        .filter(|a| a != "--bench")
+        .collect();
+    let mut repeats = 41usize;
+    let mut level = 6u32;
+    let mut path = None;
+    let mut i = 0;
+    while i < args.len() {
+        match args[i].as_str() {
+            "--repeats" => {
+                repeats = args[i + 1].parse().expect("--repeats N");
+                i += 2;
+            }
+            "--sphere" => {
+                level = args[i + 1].parse().expect("--sphere LEVEL");
+                i += 2;
+            }
+            other => {
+                path = Some(other.to_string());
+                i += 1;
+            }
+        }
+    }
+    let mesh = match &path {
+        Some(p) => load_mesh(p, &LoadOptions::default()).expect("load").mesh,
+        None => sphere(1.0, level).expect("sphere"),
+    };
+    let (l, mass) =
+        laplacian_and_mass(&mesh, &LaplacianOptions::default(), Par::Seq).expect("laplacian");
+    let a = l
+        .add_scaled(1.0, &CsrMatrix::from_diagonal(&mass).expect("mass"), 1.0)
+        .expect("L + M");
+    let solver = SpdSolver::new(&a).expect("factor");
+    let n = a.nrows();
+    let nnz = solver.factor_nnz() as f64;
+    let rhs: Vec<f64> = (0..n)
+        .map(|i| ((i * 7919) % 1009) as f64 / 1009.0 - 0.5)
+        .collect();
+    let mut one = Vec::new();
+    let mut b = rhs.clone();
+    for k in 0..repeats + 5 {
+        b.copy_from_slice(&rhs);
+        let t = Instant::now();
+        solver.solve_in_place(&mut b).expect("solve");
+        if k >= 5 {
+            one.push(t.elapsed().as_secs_f64());
+        }
+    }
+    let check: f64 = b.iter().sum();
+    let m = 8;
+    let block: Vec<f64> = (0..m).flat_map(|_| rhs.iter().copied()).collect();
+    let mut eight = Vec::new();
+    let mut bb = block.clone();
+    for k in 0..repeats / 4 + 3 {
+        bb.copy_from_slice(&block);
+        let t = Instant::now();
+        solver.solve_many(&mut bb, m, Par::Seq).expect("solve");
+        if k >= 3 {
+            eight.push(t.elapsed().as_secs_f64());
+        }
+    }
+    let t1 = median(one);
+    let t8 = median(eight);
+    println!(
+        "{{\"n\": {n}, \"factor_values\": {nnz}, \"one_ms\": {:.3}, \"one_ns_per_value\": {:.3}, \"eight_ms\": {:.3}, \"eight_ns_per_value_column\": {:.3}, \"checksum\": {check:.17e}}}",
+        t1 * 1e3,
+        t1 * 1e9 / nnz,
+        t8 * 1e3,
+        t8 * 1e9 / (nnz * m as f64),
+    );
+}
