@@ -4,7 +4,8 @@
 //! (each value is read twice per solve: forward and backward).
 //!
 //! Usage: `cargo bench -p crestflow-nodes-spectral --bench solve -- [MESH | --sphere LEVEL]
-//! [--repeats N]` (default: unit icosphere of level 6).
+//! [--repeats N]` (default: unit icosphere of level 6; give MESH as an absolute path, since
+//! cargo runs benches in the crate's folder).
 
 use std::time::Instant;
 
@@ -45,7 +46,10 @@ fn main() {
         }
     }
     let mesh = match &path {
-        Some(p) => load_mesh(p, &LoadOptions::default()).expect("load").mesh,
+        Some(p) => match load_mesh(p, &LoadOptions::default()) {
+            Ok(loaded) => loaded.mesh,
+            Err(e) => panic!("cannot load {p}: {e}"),
+        },
         None => sphere(1.0, level).expect("sphere"),
     };
     let (l, mass) =
