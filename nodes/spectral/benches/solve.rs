@@ -4,7 +4,7 @@
 //! (each value is read twice per solve: forward and backward).
 //!
 //! Usage: `cargo bench -p crestflow-nodes-spectral --bench solve -- [MESH | --sphere LEVEL]
-//! [--repeats N]` (default: unit icosphere of level 6; give MESH as an absolute path, since
+//! [--repeats N] [--only 1|8]` (default: unit icosphere of level 6; give MESH as an absolute path, since
 //! cargo runs benches in the crate's folder).
 
 use std::time::Instant;
@@ -28,11 +28,16 @@ fn main() {
     let mut repeats = 41usize;
     let mut level = 6u32;
     let mut path = None;
+    let mut only = None;
     let mut i = 0;
     while i < args.len() {
         match args[i].as_str() {
             "--repeats" => {
                 repeats = args[i + 1].parse().expect("--repeats N");
+                i += 2;
+            }
+            "--only" => {
+                only = Some(args[i + 1].parse::<usize>().expect("--only 1|8"));
                 i += 2;
             }
             "--sphere" => {
@@ -65,11 +70,12 @@ fn main() {
         .collect();
     let mut one = Vec::new();
     let mut b = rhs.clone();
-    for k in 0..repeats + 5 {
+    let runs = |w: usize, r: usize| if only.is_none_or(|o| o == w) { r } else { 1 };
+    for k in 0..runs(1, repeats + 5) {
         b.copy_from_slice(&rhs);
         let t = Instant::now();
         solver.solve_in_place(&mut b).expect("solve");
-        if k >= 5 {
+        if k >= 5 || runs(1, 2) == 1 {
             one.push(t.elapsed().as_secs_f64());
         }
     }
@@ -78,11 +84,11 @@ fn main() {
     let block: Vec<f64> = (0..m).flat_map(|_| rhs.iter().copied()).collect();
     let mut eight = Vec::new();
     let mut bb = block.clone();
-    for k in 0..repeats / 4 + 3 {
+    for k in 0..runs(8, repeats / 4 + 3) {
         bb.copy_from_slice(&block);
         let t = Instant::now();
         solver.solve_many(&mut bb, m, Par::Seq).expect("solve");
-        if k >= 3 {
+        if k >= 3 || runs(8, 2) == 1 {
             eight.push(t.elapsed().as_secs_f64());
         }
     }
