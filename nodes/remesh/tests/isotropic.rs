@@ -518,16 +518,21 @@ fn bad_input_gives_clear_errors() {
     ));
 }
 
+/// A mesh of `../shared/data/meshes` (path below that folder).
+fn shared_mesh(rel: &str) -> TriMesh {
+    let path = format!(
+        "{}/../../../shared/data/meshes/{rel}",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    match crestflow_geom::io::load_mesh(&path, &Default::default()) {
+        Ok(loaded) => loaded.mesh,
+        Err(e) => panic!("cannot read {path}: {e}"),
+    }
+}
+
 #[test]
 fn fandisk_keeps_its_sharp_edges() {
-    let path = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../../shared/data/meshes/cad/cgal_fandisk.off"
-    );
-    let Ok(loaded) = crestflow_geom::io::load_mesh(path, &Default::default()) else {
-        panic!("cannot read {path}");
-    };
-    let input = loaded.mesh;
+    let input = shared_mesh("cad/cgal_fandisk.off");
     let params = IsotropicParams {
         target: 0.02,
         ..Default::default()
@@ -1003,14 +1008,7 @@ fn long_edges_left_after_the_last_splits_follow_the_surface() {
     // The flips of the last round and after it are followed by no split: a flip that made an
     // edge longer than the split length over a curved pair would leave it as a chord across
     // the surface (0.45 L off the armadillo at 2 % before this rule, its largest distance).
-    let path = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../../shared/data/meshes/organic/cgal_armadillo.off"
-    );
-    let Ok(loaded) = crestflow_geom::io::load_mesh(path, &Default::default()) else {
-        panic!("cannot read {path}");
-    };
-    let input = loaded.mesh;
+    let input = shared_mesh("organic/cgal_armadillo.off");
     let params = IsotropicParams {
         target: 0.02,
         ..Default::default()
