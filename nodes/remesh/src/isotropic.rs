@@ -1785,8 +1785,8 @@ impl State<'_> {
     }
 
     /// Whether flipping the edge `a`–`b` to `c`–`d` makes an edge longer than the split length
-    /// whose middle lies farther than [`FAR_POINT`]·L from the input surface and farther than
-    /// the middle of `a`–`b`.
+    /// (and than `a`–`b`) whose middle lies farther than [`FAR_POINT`]·L from the input surface
+    /// and farther than the middle of `a`–`b`.
     fn long_flip_leaves_surface(&self, a: u32, b: u32, c: u32, d: u32) -> bool {
         let l2 = self.len2(c, d);
         if l2 <= Self::split_len2(self.size[c as usize], self.size[d as usize])

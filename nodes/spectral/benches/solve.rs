@@ -61,39 +61,43 @@ fn main() {
     let rhs: Vec<f64> = (0..n)
         .map(|i| ((i * 7919) % 1009) as f64 / 1009.0 - 0.5)
         .collect();
-    let mut one = Vec::new();
+    // The fastest run of each width: the solves are bound by memory traffic, and other jobs
+    // only add to it. `--only W` times width W alone.
+    let timed = |w: usize| only.is_none_or(|o| o == w);
+    let fastest = |runs: usize, solve: &mut dyn FnMut()| {
+        (0..runs)
+            .map(|_| {
+                let t = Instant::now();
+                solve();
+                t.elapsed().as_secs_f64()
+            })
+            .fold(f64::INFINITY, f64::min)
+    };
     let mut b = rhs.clone();
-    let runs = |w: usize, r: usize| if only.is_none_or(|o| o == w) { r } else { 1 };
-    for k in 0..runs(1, repeats + 5) {
-        b.copy_from_slice(&rhs);
-        let t = Instant::now();
-        solver.solve_in_place(&mut b).expect("solve");
-        if k >= 5 || runs(1, 2) == 1 {
-            one.push(t.elapsed().as_secs_f64());
-        }
-    }
+    let t1 = timed(1).then(|| {
+        fastest(repeats, &mut || {
+            b.copy_from_slice(&rhs);
+            solver.solve_in_place(&mut b).expect("solve");
+        })
+    });
     let check: f64 = b.iter().sum();
     let m = 8;
     let block: Vec<f64> = (0..m).flat_map(|_| rhs.iter().copied()).collect();
-    let mut eight = Vec::new();
     let mut bb = block.clone();
-    for k in 0..runs(8, repeats / 4 + 3) {
-        bb.copy_from_slice(&block);
-        let t = Instant::now();
-        solver.solve_many(&mut bb, m, Par::Seq).expect("solve");
-        if k >= 3 || runs(8, 2) == 1 {
-            eight.push(t.elapsed().as_secs_f64());
-        }
-    }
-    // The fastest run: the solves are bound by memory traffic, and other jobs only add to it.
-    let fastest = |v: &[f64]| v.iter().copied().fold(f64::INFINITY, f64::min);
-    let t1 = fastest(&one);
-    let t8 = fastest(&eight);
+    let t8 = timed(m).then(|| {
+        fastest(repeats / 4 + 1, &mut || {
+            bb.copy_from_slice(&block);
+            solver.solve_many(&mut bb, m, Par::Seq).expect("solve");
+        })
+    });
+    // Milliseconds and nanoseconds per value (per value and column for the block).
+    let figures = |t: Option<f64>, per: f64| match t {
+        Some(t) => (format!("{:.3}", t * 1e3), format!("{:.3}", t * 1e9 / per)),
+        None => ("null".to_string(), "null".to_string()),
+    };
+    let (one_ms, one_ns) = figures(t1, nnz);
+    let (eight_ms, eight_ns) = figures(t8, nnz * m as f64);
     println!(
-        "{{\"n\": {n}, \"factor_values\": {nnz}, \"one_ms\": {:.3}, \"one_ns_per_value\": {:.3}, \"eight_ms\": {:.3}, \"eight_ns_per_value_column\": {:.3}, \"checksum\": {check:.17e}}}",
-        t1 * 1e3,
-        t1 * 1e9 / nnz,
-        t8 * 1e3,
-        t8 * 1e9 / (nnz * m as f64),
+        "{{\"n\": {n}, \"factor_values\": {nnz}, \"one_ms\": {one_ms}, \"one_ns_per_value\": {one_ns}, \"eight_ms\": {eight_ms}, \"eight_ns_per_value_column\": {eight_ns}, \"checksum\": {check:.17e}}}"
     );
 }
