@@ -1355,13 +1355,14 @@ impl State<'_> {
             (d, b, halfedge::prev(g), ng),
             (a, d, halfedge::next(g), ng),
         ];
+        // Keeps the orientation of the face of normal `n` and the 30° of the rule.
+        let shape = |t: [u32; 3], n: V3| {
+            let q = t.map(x);
+            keeps_orientation(n, q, self.cos_turn)
+                && min_angle_cos(q[0], q[1], q[2]) <= COS_FAR_MOVE_MIN_ANGLE
+        };
         for (u, w, o, n_old) in sides {
             let t = [NONE, u, w];
-            let shape = |t: [u32; 3], n: V3| {
-                let q = t.map(x);
-                keeps_orientation(n, q, self.cos_turn)
-                    && min_angle_cos(q[0], q[1], q[2]) <= COS_FAR_MOVE_MIN_ANGLE
-            };
             if shape(t, n_old) {
                 plan.after.push(t);
                 continue;
