@@ -117,14 +117,8 @@ impl HalfEdgeMesh {
         }
         let corner: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
         let nh = corner.len();
-        // Directed half-edges sorted by (min, max, from): twins become neighbours.
-        let mut keys: Vec<(u32, u32, u32)> = (0..nh as u32)
-            .map(|h| {
-                let (a, b) = (corner[h as usize], corner[next(h) as usize]);
-                (a.min(b), a.max(b), h)
-            })
-            .collect();
-        keys.sort_unstable();
+        // Directed half-edges sorted by (min, max, h): twins become neighbours.
+        let keys = crate::mesh::sorted_sides(nv, &mesh.triangles);
         let mut opp = vec![NONE; nh];
         let mut i = 0;
         while i < keys.len() {

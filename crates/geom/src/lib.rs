@@ -8,6 +8,7 @@ pub mod curvature;
 pub mod fcn;
 pub mod halfedge;
 pub mod io;
+pub mod locality;
 pub mod mesh;
 pub mod shapes;
 pub mod vec3;

@@ -73,6 +73,48 @@ pub struct Topology {
     pub is_boundary_vertex: Vec<bool>,
 }
 
+/// The sides of the faces as `(min, max, h)` (corner indices, `h = 3 f + i` for side
+/// `(t[i], t[(i + 1) % 3])`), sorted: the two sides of an edge come out next to each other.
+/// A counting sort by the smaller corner, then each vertex's few sides by `(max, h)`: linear
+/// time, where sorting all triples at once took most of the set-up of large meshes. Corners
+/// must be below `n_vertices`.
+pub(crate) fn sorted_sides(n_vertices: usize, triangles: &[[u32; 3]]) -> Vec<(u32, u32, u32)> {
+    let mut start = vec![0u32; n_vertices + 1];
+    for t in triangles {
+        for i in 0..3 {
+            start[t[i].min(t[(i + 1) % 3]) as usize + 1] += 1;
+        }
+    }
+    for v in 0..n_vertices {
+        start[v + 1] += start[v];
+    }
+    let mut fill = start.clone();
+    let mut out = vec![(0u32, 0u32, 0u32); 3 * triangles.len()];
+    // Placed in increasing h within each bucket.
+    for (f, t) in triangles.iter().enumerate() {
+        for i in 0..3 {
+            let (a, b) = (t[i], t[(i + 1) % 3]);
+            let slot = &mut fill[a.min(b) as usize];
+            out[*slot as usize] = (a.min(b), a.max(b), 3 * f as u32 + i as u32);
+            *slot += 1;
+        }
+    }
+    for v in 0..n_vertices {
+        let bucket = &mut out[start[v] as usize..start[v + 1] as usize];
+        // Insertion sort: buckets hold a handful of sides, and it keeps equal keys in order.
+        for k in 1..bucket.len() {
+            let x = bucket[k];
+            let mut j = k;
+            while j > 0 && bucket[j - 1] > x {
+                bucket[j] = bucket[j - 1];
+                j -= 1;
+            }
+            bucket[j] = x;
+        }
+    }
+    out
+}
+
 impl Topology {
     fn build(n_vertices: usize, triangles: &[[u32; 3]]) -> Topology {
         // Vertex -> faces, CSR.
@@ -95,14 +137,10 @@ impl Topology {
         }
 
         // Half-edges keyed by (min, max), sorted, give unique edges deterministically.
-        let mut half: Vec<(u32, u32, u32, u8)> = Vec::with_capacity(triangles.len() * 3);
-        for (f, t) in triangles.iter().enumerate() {
-            for i in 0..3 {
-                let (a, b) = (t[i], t[(i + 1) % 3]);
-                half.push((a.min(b), a.max(b), f as u32, i as u8));
-            }
-        }
-        half.sort_unstable();
+        let half: Vec<(u32, u32, u32, u8)> = sorted_sides(n_vertices, triangles)
+            .into_iter()
+            .map(|(a, b, h)| (a, b, h / 3, (h % 3) as u8))
+            .collect();
         let mut edges: Vec<[u32; 2]> = Vec::with_capacity(half.len() / 2 + 1);
         let mut edge_faces: Vec<[u32; 2]> = Vec::with_capacity(half.len() / 2 + 1);
         let mut face_edges = vec![[0u32; 3]; triangles.len()];

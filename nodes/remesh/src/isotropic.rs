@@ -87,6 +87,7 @@ use crestflow_flow::{
     Report, Validate,
 };
 use crestflow_geom::halfedge::{self, HalfEdgeError, HalfEdgeMesh, NONE};
+use crestflow_geom::locality::spatially_ordered;
 use crestflow_geom::vec3::{self, V3};
 use crestflow_geom::{FeatureCurveNetwork, TriMesh};
 
@@ -311,7 +312,28 @@ fn isotropic_with(
             position: *p,
         });
     }
-    let he = HalfEdgeMesh::from_trimesh(mesh)?;
+    // Work on a spatially coherent numbering: the sweeps walk one-rings in index order, and on
+    // inputs numbered in scan or subdivision order nearly every walk misses the cache.
+    let original = mesh;
+    let reordered = spatially_ordered(original);
+    let moved_curves = match (&reordered, curves) {
+        (Some(r), Some(net)) => Some(r.network(net)),
+        _ => None,
+    };
+    let (mesh, curves) = match &reordered {
+        Some(r) => (&r.mesh, moved_curves.as_ref()),
+        None => (original, curves),
+    };
+    let he = match HalfEdgeMesh::from_trimesh(mesh) {
+        Ok(he) => he,
+        // Name the defect with the input's own indices.
+        Err(e) => {
+            return Err(HalfEdgeMesh::from_trimesh(original)
+                .err()
+                .unwrap_or(e)
+                .into())
+        }
+    };
     let diag = mesh.bbox_diagonal();
     let l = if params.relative {
         params.target * diag
@@ -926,10 +948,8 @@ impl State<'_> {
                             .max(self.fan_min_angle_cos(b, NONE))
                     } else {
                         new <= COS_COLLAPSE_MIN_ANGLE
-                            || new
-                                <= self
-                                    .fan_min_angle_cos(a, b)
-                                    .max(self.fan_min_angle_cos(b, a))
+                            || new <= self.fan_min_angle_cos(a, b)
+                            || new <= self.fan_min_angle_cos(b, a)
                     }
             }
     }
@@ -1125,6 +1145,7 @@ impl State<'_> {
                     let mut new = -1.0;
                     if !(self.fan_ok(v, NONE, p, &mut new)
                         && (new <= COS_FAR_MOVE_MIN_ANGLE || new <= old))
+                        || self.move_leaves_surface(v, p)
                     {
                         continue;
                     }
@@ -1785,6 +1806,33 @@ impl State<'_> {
         tris + boundary as i64
     }
 
+    /// Whether moving `v` to `p` makes an edge at `v` longer than the split length (and than
+    /// it was) whose middle lies farther than [`FAR_POINT`]·L from the input surface and
+    /// farther than its old middle: the far-point pull runs after the last splits, like the
+    /// final flips ([`Self::long_flip_leaves_surface`]).
+    fn move_leaves_surface(&self, v: u32, p: V3) -> bool {
+        let limit2 = (FAR_POINT * self.l).powi(2);
+        let off = |mid: V3, u: u32| {
+            self.proj
+                .project(mid, self.hint[u as usize], self.l)
+                .hit
+                .dist2
+        };
+        let q = self.he.position(v);
+        self.neighbor_iter(v).any(|u| {
+            let x = self.he.position(u);
+            let d = vec3::sub(p, x);
+            let l2 = vec3::dot(d, d);
+            if l2 <= Self::split_len2(self.size[u as usize], self.size[v as usize])
+                || l2 <= self.len2(u, v)
+            {
+                return false;
+            }
+            let new = off(vec3::lerp(x, p, 0.5), u);
+            new > limit2 && new > off(vec3::lerp(x, q, 0.5), u)
+        })
+    }
+
     /// Whether flipping the edge `a`–`b` to `c`–`d` makes an edge longer than the split length
     /// (and than `a`–`b`) whose middle lies farther than [`FAR_POINT`]·L from the input surface
     /// and farther than the middle of `a`–`b`.
@@ -2082,8 +2130,16 @@ const COS_COLLAPSE_MIN_ANGLE: f64 = 0.939_692_620_785_908_4;
 #[inline]
 fn keeps_orientation(n_old: V3, t: [V3; 3], cos_max: f64) -> bool {
     let n_new = vec3::cross(vec3::sub(t[1], t[0]), vec3::sub(t[2], t[0]));
-    let (lo, ln) = (vec3::norm(n_old), vec3::norm(n_new));
-    ln > 1e-12 * lo && vec3::dot(n_old, n_new) >= cos_max * lo * ln
+    let (lo2, ln2) = (vec3::dot(n_old, n_old), vec3::dot(n_new, n_new));
+    let dot = vec3::dot(n_old, n_new);
+    // Squared forms of `|n_new| > 1e-12 |n_old|` and `dot ≥ cos_max |n_old| |n_new|`: no
+    // square roots on the collapse path (a non-negative `cos_max` needs `dot ≥ 0` first).
+    if cos_max >= 0.0 {
+        ln2 > 1e-24 * lo2 && dot >= 0.0 && dot * dot >= cos_max * cos_max * lo2 * ln2
+    } else {
+        let (lo, ln) = (lo2.sqrt(), ln2.sqrt());
+        ln > 1e-12 * lo && dot >= cos_max * lo * ln
+    }
 }
 
 fn min_angle_cos(a: V3, b: V3, c: V3) -> f64 {
@@ -2113,7 +2169,7 @@ pub struct IsotropicNode;
 impl NodeKind for IsotropicNode {
     type Params = IsotropicParams;
     const KIND: &'static str = "remesh.isotropic";
-    const VERSION: u32 = 14;
+    const VERSION: u32 = 15;
     const DOC: &'static str = "Isotropic remeshing at a target edge length (Botsch & Kobbelt \
         2004, thesis §5.1.1): splits > 4/3 L, collapses < 4/5 L, valence-improving flips, \
         tangential relaxation and projection onto the input surface, for `iterations` rounds. \
