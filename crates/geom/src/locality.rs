@@ -73,6 +73,21 @@ fn spread(x: u64) -> u64 {
     x
 }
 
+/// Median over the faces of the index distance between their first and last corner: how far
+/// apart in memory a face's vertices sit (0 for a mesh without faces).
+pub fn median_corner_spread(mesh: &TriMesh) -> u32 {
+    let mut spread: Vec<u32> = mesh
+        .triangles
+        .iter()
+        .map(|t| t.iter().max().unwrap_or(&0) - t.iter().min().unwrap_or(&0))
+        .collect();
+    if spread.is_empty() {
+        return 0;
+    }
+    let mid = spread.len() / 2;
+    *spread.select_nth_unstable(mid).1
+}
+
 /// `mesh` renumbered along a Morton curve (module docs); `None` when a face has a corner
 /// index out of range (the caller keeps the mesh as it is and reports the defect itself).
 pub fn spatially_ordered(mesh: &TriMesh) -> Option<Reordered> {
@@ -209,6 +224,23 @@ mod tests {
         let again = spatially_ordered(&scrambled).unwrap();
         assert_eq!(again.new_vertex, r.new_vertex);
         assert_eq!(again.old_face, r.old_face);
+    }
+
+    #[test]
+    fn median_corner_spread_of_a_strip() {
+        // Faces (2k, 2k+1, 2k+2) and (2k+1, 2k+3, 2k+2): spreads 2; one far face: 50.
+        let p: Vec<V3> = (0..60).map(|i| [i as f64, (i % 2) as f64, 0.0]).collect();
+        let mut t: Vec<[u32; 3]> = (0..10)
+            .flat_map(|k| {
+                [
+                    [2 * k, 2 * k + 1, 2 * k + 2],
+                    [2 * k + 1, 2 * k + 3, 2 * k + 2],
+                ]
+            })
+            .collect();
+        t.push([0, 50, 1]);
+        assert_eq!(median_corner_spread(&TriMesh::new(p.clone(), t)), 2);
+        assert_eq!(median_corner_spread(&TriMesh::new(p, vec![])), 0);
     }
 
     #[test]

@@ -87,7 +87,7 @@ use crestflow_flow::{
     Report, Validate,
 };
 use crestflow_geom::halfedge::{self, HalfEdgeError, HalfEdgeMesh, NONE};
-use crestflow_geom::locality::spatially_ordered;
+use crestflow_geom::locality::{median_corner_spread, spatially_ordered};
 use crestflow_geom::vec3::{self, V3};
 use crestflow_geom::{FeatureCurveNetwork, TriMesh};
 
@@ -312,10 +312,17 @@ fn isotropic_with(
             position: *p,
         });
     }
-    // Work on a spatially coherent numbering: the sweeps walk one-rings in index order, and on
-    // inputs numbered in scan or subdivision order nearly every walk misses the cache.
+    // Work on a spatially coherent numbering when the input's is not: the sweeps walk
+    // one-rings in index order, and on inputs numbered in scan or subdivision order nearly
+    // every walk misses the cache. A coherent numbering is kept as it is: it costs nothing
+    // to walk, and it is often structured (CAD parts built sector by sector), so that the
+    // sweeps treat repeated parts alike and the output keeps their symmetry.
     let original = mesh;
-    let reordered = spatially_ordered(original);
+    let reordered = if median_corner_spread(original) > INCOHERENT_SPREAD {
+        spatially_ordered(original)
+    } else {
+        None
+    };
     let moved_curves = match (&reordered, curves) {
         (Some(r), Some(net)) => Some(r.network(net)),
         _ => None,
@@ -2096,6 +2103,11 @@ struct SplitPlan {
 /// Distance from the output, in target lengths, beyond which an input vertex pulls the
 /// output onto itself ([`State::pull_to_far_points`]).
 const FAR_POINT: f64 = 0.3;
+
+/// Median index distance between a face's corners above which the input is renumbered
+/// (`crestflow_geom::locality`): 512 positions are 12 KB, within the first-level caches.
+/// Scans and subdivided meshes measured 1064–46815, generated CAD parts 11–102.
+const INCOHERENT_SPREAD: u32 = 512;
 
 /// How far, relative to the far point pulled in, a point the pull uncovers may end up from
 /// the output ([`State::move_keeps_distances`]).
