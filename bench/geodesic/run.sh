@@ -4,6 +4,9 @@
 # Needs python3 with numpy, scipy, potpourri3d (PYTHON=... to choose the interpreter).
 set -euo pipefail
 PYTHON="${PYTHON:-python3}"
+# Repeats per timing on both sides (the steady one-source figure is the median of this many
+# back-to-back calls after fifty): this host's call times spread by 2-3x.
+REPEATS="${REPEATS:-15}"
 ROOT="$PWD"
 OUT="$ROOT/target/bench-geodesic"
 mkdir -p "$OUT"
@@ -25,11 +28,11 @@ PY
 }
 run_one() { # name, sphere flag, then the crestflow bench arguments
   local name="$1" sphere="$2"; shift 2
-  cargo bench -q -p crestflow-nodes-geodesic --bench heat -- "$@" > "$OUT/$name.crestflow.json"
+  cargo bench -q -p crestflow-nodes-geodesic --bench heat -- "$@" --repeats "$REPEATS" > "$OUT/$name.crestflow.json"
   local mesh src
   mesh=$("$PYTHON" -c 'import json,sys; print(json.load(open(sys.argv[1]))["mesh"])' "$OUT/$name.crestflow.json")
   src=$("$PYTHON" -c 'import json,sys; print(json.load(open(sys.argv[1]))["source"])' "$OUT/$name.crestflow.json")
-  "$PYTHON" bench/geodesic/peer.py "$mesh" "$src" $sphere > "$OUT/$name.pp3d.json"
+  "$PYTHON" bench/geodesic/peer.py "$mesh" "$src" $sphere --repeats "$REPEATS" > "$OUT/$name.pp3d.json"
   ratio "$name" "$OUT/$name.crestflow.json" "$OUT/$name.pp3d.json"
 }
 run_one bunny "" "$ROOT/../shared/data/meshes/organic/cgal_bunny00.off"
