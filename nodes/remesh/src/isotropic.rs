@@ -1874,53 +1874,55 @@ impl State<'_> {
         tris + boundary as i64
     }
 
-    /// Whether moving `v` to `p` makes an edge at `v` longer than the split length (and than
-    /// it was) whose middle lies farther than [`FAR_POINT`]·L from the input surface and
-    /// farther than its old middle: the far-point pull runs after the last splits, like the
-    /// final flips ([`Self::long_flip_leaves_surface`]).
+    /// Whether moving `v` to `p` makes an edge at `v` a chord off the surface
+    /// ([`Self::chord_leaves_surface`]): the far-point pull runs after the last splits, like
+    /// the final flips ([`Self::long_flip_leaves_surface`]).
     fn move_leaves_surface(&self, v: u32, p: V3) -> bool {
-        let limit2 = (FAR_POINT * self.l).powi(2);
-        let off = |mid: V3, u: u32| {
-            self.proj
-                .project(mid, self.hint[u as usize], self.l)
-                .hit
-                .dist2
-        };
         let q = self.he.position(v);
         self.neighbor_iter(v).any(|u| {
             let x = self.he.position(u);
-            let d = vec3::sub(p, x);
-            let l2 = vec3::dot(d, d);
-            if l2 <= Self::split_len2(self.size[u as usize], self.size[v as usize])
-                || l2 <= self.len2(u, v)
-            {
-                return false;
-            }
-            let new = off(vec3::lerp(x, p, 0.5), u);
-            new > limit2 && new > off(vec3::lerp(x, q, 0.5), u)
+            let split2 = Self::split_len2(self.size[u as usize], self.size[v as usize]);
+            self.chord_leaves_surface([x, p], [x, q], [u, u], split2)
         })
+    }
+
+    /// Whether an edge `new` that replaces the edge `old` is longer than both the split length
+    /// (`split2`, squared) and `old`, and its middle lies farther than [`FAR_POINT`]·L from
+    /// the input surface and farther than the middle of `old`. The middles are projected
+    /// from the input faces recorded for the vertices `hints` (new, old).
+    fn chord_leaves_surface(
+        &self,
+        new: [V3; 2],
+        old: [V3; 2],
+        hints: [u32; 2],
+        split2: f64,
+    ) -> bool {
+        let len2 = |e: [V3; 2]| {
+            let d = vec3::sub(e[0], e[1]);
+            vec3::dot(d, d)
+        };
+        let l2 = len2(new);
+        if l2 <= split2 || l2 <= len2(old) {
+            return false;
+        }
+        let off = |e: [V3; 2], v: u32| {
+            let mid = vec3::lerp(e[0], e[1], 0.5);
+            self.proj
+                .project(mid, self.hint[v as usize], self.l)
+                .hit
+                .dist2
+        };
+        let far = off(new, hints[0]);
+        far > (FAR_POINT * self.l).powi(2) && far > off(old, hints[1])
     }
 
     /// Whether flipping the edge `a`–`b` to `c`–`d` makes an edge longer than the split length
     /// (and than `a`–`b`) whose middle lies farther than [`FAR_POINT`]·L from the input surface
     /// and farther than the middle of `a`–`b`.
     fn long_flip_leaves_surface(&self, a: u32, b: u32, c: u32, d: u32) -> bool {
-        let l2 = self.len2(c, d);
-        if l2 <= Self::split_len2(self.size[c as usize], self.size[d as usize])
-            || l2 <= self.len2(a, b)
-        {
-            return false;
-        }
         let p = |v: u32| self.he.position(v);
-        let off = |u: u32, v: u32| {
-            let mid = vec3::lerp(p(u), p(v), 0.5);
-            self.proj
-                .project(mid, self.hint[u as usize], self.l)
-                .hit
-                .dist2
-        };
-        let new = off(c, d);
-        new > (FAR_POINT * self.l).powi(2) && new > off(a, b)
+        let split2 = Self::split_len2(self.size[c as usize], self.size[d as usize]);
+        self.chord_leaves_surface([p(c), p(d)], [p(a), p(b)], [c, a], split2)
     }
 
     /// One flip sweep (module docs, step 3). With `neutral`, a flip that leaves the valence
@@ -2196,25 +2198,22 @@ const COS_FLIP_MIN_ANGLE: f64 = 0.866_025_403_784_438_6;
 /// (its cosine).
 const COS_COLLAPSE_MIN_ANGLE: f64 = 0.939_692_620_785_908_4;
 
-/// Cosine of the smallest interior angle of triangle (a, b, c) (1 when degenerate): the angle
-/// opposite the shortest side, by the law of cosines.
 /// Whether triangle `t` keeps a non-degenerate area and turns by at most the angle whose
-/// cosine is `cos_max` from the (unnormalised) normal `n_old` of the face it replaces.
+/// cosine is `cos_max` (at least 0: turns up to 90°) from the (unnormalised) normal `n_old`
+/// of the face it replaces.
 #[inline]
 fn keeps_orientation(n_old: V3, t: [V3; 3], cos_max: f64) -> bool {
     let n_new = vec3::cross(vec3::sub(t[1], t[0]), vec3::sub(t[2], t[0]));
     let (lo2, ln2) = (vec3::dot(n_old, n_old), vec3::dot(n_new, n_new));
     let dot = vec3::dot(n_old, n_new);
     // Squared forms of `|n_new| > 1e-12 |n_old|` and `dot ≥ cos_max |n_old| |n_new|`: no
-    // square roots on the collapse path (a non-negative `cos_max` needs `dot ≥ 0` first).
-    if cos_max >= 0.0 {
-        ln2 > 1e-24 * lo2 && dot >= 0.0 && dot * dot >= cos_max * cos_max * lo2 * ln2
-    } else {
-        let (lo, ln) = (lo2.sqrt(), ln2.sqrt());
-        ln > 1e-12 * lo && dot >= cos_max * lo * ln
-    }
+    // square roots on the collapse path (`cos_max ≥ 0`, so `dot ≥ 0` comes first).
+    debug_assert!(cos_max >= 0.0);
+    ln2 > 1e-24 * lo2 && dot >= 0.0 && dot * dot >= cos_max * cos_max * lo2 * ln2
 }
 
+/// Cosine of the smallest interior angle of triangle (a, b, c) (1 when degenerate): the angle
+/// opposite the shortest side, by the law of cosines.
 fn min_angle_cos(a: V3, b: V3, c: V3) -> f64 {
     let d2 = |x: V3, y: V3| {
         let d = vec3::sub(x, y);
