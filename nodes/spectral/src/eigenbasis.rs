@@ -40,6 +40,7 @@
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::matmul::matmul;
 use faer::{Accum, Mat, MatRef};
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crestflow_flow::{
@@ -228,11 +229,16 @@ pub fn at_d_b(
                 );
             }
             Some(d) => {
-                let db = Mat::<f64>::from_fn(len, q, |i, j| d[r0 + i] * b[j * n + r0 + i]);
+                let d = &d[r0..r0 + len];
+                let mut db = Vec::with_capacity(len * q);
+                for j in 0..q {
+                    let bj = &b[j * n + r0..j * n + r0 + len];
+                    db.extend(d.iter().zip(bj).map(|(di, bi)| di * bi));
+                }
                 matmul(
                     out.as_mut(),
                     Accum::Replace,
-                    db.as_ref().transpose(),
+                    mref(&db, len, q).transpose(),
                     am,
                     1.0,
                     faer::Par::Seq,
@@ -250,13 +256,6 @@ pub fn at_d_b(
         }
     }
     sum
-}
-
-/// `A X` for column-major `A` (n × p) and `X` (p × q); returns n × q column-major.
-fn a_x(a: &[f64], p: usize, x: &[f64], q: usize, n: usize, par: Par) -> Vec<f64> {
-    let mut y = vec![0.0; n * q];
-    a_x_into(&mut y, 0.0, a, p, x, q, n, par);
-    y
 }
 
 /// `Y = beta · Y + s · A X` with `s = 1` when `beta == 0` (Y overwritten) and `s = −1`
@@ -291,7 +290,13 @@ fn a_x_into(
         };
         matmul(ym, accum, am, mref(x, p, q), alpha, faer::Par::Seq);
     };
-    par.for_each(chunks, body);
+    if beta == 0.0 {
+        par.for_each(chunks, body);
+    } else {
+        // An update right after a product over the same rows: last chunks first, while
+        // they are still in cache from that product's end.
+        par.for_each(chunks, |c| body(chunks - 1 - c));
+    }
 }
 
 /// A raw pointer that may cross threads (disjoint writes only, see [`a_x_into`]).
@@ -522,39 +527,51 @@ pub fn eigenbasis_with_cancel(
     order.sort_by(|&a, &b| rq[a].total_cmp(&rq[b]).then(a.cmp(&b)));
     let values: Vec<f64> = order.iter().map(|&i| rq[i]).collect();
 
-    // Scatter back to all vertices, fix signs, measure. Without inactive vertices `L Φ` is
-    // `lv` in the output's order and signs (negation is exact): no second product.
-    let mut full = vec![0.0; n_all * k];
-    let mut l_full = if n == n_all {
-        vec![0.0; n_all * k]
-    } else {
-        Vec::new()
-    };
-    for (i, &src) in order.iter().enumerate() {
-        let col = &vectors[src * n..(src + 1) * n];
+    // Signs: the largest entry of each vector is positive.
+    let sign: Vec<f64> = par.map_collect(k, |i| {
+        let col = &vectors[i * n..(i + 1) * n];
         let mut best = 0usize;
         for (j, x) in col.iter().enumerate() {
             if x.abs() > col[best].abs() {
                 best = j;
             }
         }
-        let s = if col[best] < 0.0 { -1.0 } else { 1.0 };
-        for (j, &a) in active.iter().enumerate() {
-            full[i * n_all + a] = s * col[j];
+        if col[best] < 0.0 {
+            -1.0
+        } else {
+            1.0
         }
-        if n == n_all {
-            for (d, &x) in l_full[i * n..(i + 1) * n]
-                .iter_mut()
-                .zip(&lv[src * n..(src + 1) * n])
-            {
-                *d = s * x;
+    });
+    let (full, max_residual, max_orthonormality_error) = if n == n_all {
+        // The quality figures depend neither on the order nor on the signs (negation is
+        // exact): they come from the solver's vectors and `lv` as they are, then the
+        // vectors are sorted and signed in place (no n × k copy).
+        let (res, orth) = quality_with_product(l_all, &op.mass, &rq, &vectors, &lv, par);
+        let mut vectors = vectors;
+        permute_columns(&mut vectors, n, &order);
+        let signs: Vec<f64> = order.iter().map(|&src| sign[src]).collect();
+        let body = |(col, &s): (&mut [f64], &f64)| {
+            if s < 0.0 {
+                col.iter_mut().for_each(|x| *x = -*x);
+            }
+        };
+        match par {
+            Par::Seq => vectors.chunks_mut(n).zip(&signs).for_each(body),
+            Par::Rayon => vectors.par_chunks_mut(n).zip(&signs).for_each(body),
+        }
+        (vectors, res, orth)
+    } else {
+        // Scatter back to all vertices.
+        let mut full = vec![0.0; n_all * k];
+        for (i, &src) in order.iter().enumerate() {
+            let col = &vectors[src * n..(src + 1) * n];
+            let dest = &mut full[i * n_all..(i + 1) * n_all];
+            for (j, &a) in active.iter().enumerate() {
+                dest[a] = sign[src] * col[j];
             }
         }
-    }
-    let (max_residual, max_orthonormality_error) = if n == n_all {
-        quality_with_product(l_all, &op.mass, &values, &full, &l_full, par)
-    } else {
-        quality(l_all, &op.mass, &values, &full, par)?
+        let (res, orth) = quality(l_all, &op.mass, &values, &full, par)?;
+        (full, res, orth)
     };
     Ok(EigenBasis {
         n: n_all,
@@ -565,6 +582,31 @@ pub fn eigenbasis_with_cancel(
         max_orthonormality_error,
         solves,
     })
+}
+
+/// Reorders the columns of a column-major `n × k` block in place: column `i` becomes the old
+/// column `order[i]` (`order` a permutation). Columns already in place are not touched.
+fn permute_columns(x: &mut [f64], n: usize, order: &[usize]) {
+    let mut done = vec![false; order.len()];
+    let mut tmp = Vec::new();
+    for start in 0..order.len() {
+        if done[start] || order[start] == start {
+            continue;
+        }
+        tmp.clear();
+        tmp.extend_from_slice(&x[start * n..(start + 1) * n]);
+        let mut j = start;
+        loop {
+            done[j] = true;
+            let src = order[j];
+            if src == start {
+                x[j * n..(j + 1) * n].copy_from_slice(&tmp);
+                break;
+            }
+            x.copy_within(src * n..(src + 1) * n, j * n);
+            j = src;
+        }
+    }
 }
 
 /// Backward errors and M-orthonormality of a basis (module docs).
@@ -681,6 +723,9 @@ fn lanczos(
     let mut w = vec![0.0; n * b];
     let mut solves = 0usize;
     let mut steps = 0usize;
+    // Ritz vectors of the restarts and of the result, one buffer for all (a fresh n × k
+    // block per restart costs page faults).
+    let mut ritz: Vec<f64> = Vec::new();
     loop {
         if cancelled() {
             return Err(EigenbasisError::Cancelled);
@@ -779,8 +824,9 @@ fn lanczos(
         let converged = rel.iter().take_while(|&&r| r <= params.tol).count();
         if converged == k {
             let vals: Vec<f64> = theta[..k].iter().map(|t| sigma + 1.0 / t).collect();
-            let vecs = a_x(&v[..n * m], m, &y[..m * k], k, n, par);
-            return Ok((vals, vecs, solves));
+            ritz.resize(n * k, 0.0);
+            a_x_into(&mut ritz, 0.0, &v[..n * m], m, &y[..m * k], k, n, par);
+            return Ok((vals, ritz, solves));
         }
         if steps >= params.max_steps {
             return Err(EigenbasisError::NotConverged {
@@ -793,8 +839,8 @@ fn lanczos(
         if m + b > m_max {
             // Thick restart: keep the `keep` best Ritz vectors and the pending block.
             let keep = (k + b).min(m - b);
-            let ritz = a_x(&v[..n * m], m, &y[..m * keep], keep, n, par);
-            let pending = v[n * m..n * (m + b)].to_vec();
+            ritz.resize(n * keep, 0.0);
+            a_x_into(&mut ritz, 0.0, &v[..n * m], m, &y[..m * keep], keep, n, par);
             // Coupling of the pending block to the kept Ritz vectors: H[m.., 0..m] Y.
             let mut z = vec![0.0; b * keep];
             for i in 0..keep {
@@ -806,8 +852,10 @@ fn lanczos(
                     z[i * b + r] = s;
                 }
             }
+            // The pending block moves down first: keep + b ≤ m, so it never overlaps the
+            // Ritz vectors' destination before it is read.
+            v.copy_within(n * m..n * (m + b), n * keep);
             v[..n * keep].copy_from_slice(&ritz);
-            v[n * keep..n * (keep + b)].copy_from_slice(&pending);
             h.iter_mut().for_each(|x| *x = 0.0);
             for i in 0..keep {
                 h[i * cap + i] = theta[i];
@@ -896,5 +944,26 @@ impl NodeKind for EigenbasisNode {
             ));
         }
         Ok(Outputs::new().with("basis", basis))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::permute_columns;
+
+    #[test]
+    fn columns_follow_the_order_through_cycles_and_fixed_points() {
+        let n = 3;
+        // Column c holds c, c + 0.1, c + 0.2.
+        let mut x: Vec<f64> = (0..6)
+            .flat_map(|c| (0..n).map(move |r| c as f64 + 0.1 * r as f64))
+            .collect();
+        let order = [2, 0, 1, 3, 5, 4];
+        permute_columns(&mut x, n, &order);
+        for (i, &src) in order.iter().enumerate() {
+            for r in 0..n {
+                assert_eq!(x[i * n + r], src as f64 + 0.1 * r as f64, "column {i}");
+            }
+        }
     }
 }

@@ -278,6 +278,13 @@ fn split_triangular_solves_are_exact_and_thread_independent() {
         let mut twice = b.iter().map(|v| v * 2.0).collect::<Vec<_>>();
         solver.solve_in_place(&mut twice).unwrap();
         assert_eq!(&block[n..2 * n], &twice[..]);
+        // Eight columns (summed row by row in the forward solve) give the bits of one
+        // (summed column by column).
+        let mut eight: Vec<f64> = (0..8).flat_map(|_| b.iter().copied()).collect();
+        solver.solve_many(&mut eight, 8, Par::Seq).unwrap();
+        for col in eight.chunks(n) {
+            assert_eq!(col, &seq[..]);
+        }
         for (p, q) in twice.iter().zip(&doubled) {
             assert!((p - q).abs() <= 1e-12 * q.abs().max(1.0));
         }
