@@ -24,7 +24,11 @@
 //!    bunny's valence-6 share 0.79 → 0.80–0.83). Each sweep visits every edge once. In the
 //!    last round and after it no split follows: there a flip may not make an edge longer than
 //!    the split length whose middle lies farther than `FAR_POINT`·L from the input (and than
-//!    the old edge's), a chord across a curved pair;
+//!    the old edge's), a chord across a curved pair. No flip crosses a fold steeper than 60°
+//!    unless the pair spans a crease of the input that the other diagonal follows (its
+//!    middle farther than `FAR_POINT`·L from the input, the other's within half that
+//!    distance): that flip is made whatever the valences, under the angle rule (on the
+//!    armadillo at 1 % such chords were the largest distance, 0.35–0.48 L off);
 //! 4. tangential relaxation: every free vertex moves to the area-weighted centroid of its
 //!    incident triangles' centroids, projected onto its tangent plane (feature vertices slide
 //!    along their chain, see below);
@@ -45,7 +49,9 @@
 //! change which flips raise a pair's smallest angle (a free vertex fanning over short
 //! feature edges ends up beside them), so the flip sweep and the moves run once more. Last, where
 //! the output cuts off a tip or a thin rim of the input by more than 0.3 L (the bunny's ears
-//! at 2 %, by 0.84 L before this step), a free vertex of the closest output triangle moves
+//! at 2 %, by 0.84 L before this step), an edge of the closest output triangle is flipped when
+//! that brings the input vertex within 0.7 times its distance without worse valences (an edge
+//! across a crease), else a free vertex of that triangle moves
 //! onto the cut-off input vertex (or, when all three corners are feature vertices, a free
 //! neighbour of them) when its triangles keep angles of at least 30° and no point around
 //! them ends up farther from the input than 0.3 L, than before, or than 0.7 times the
@@ -2055,7 +2061,10 @@ impl State<'_> {
         let p = |v: u32| self.he.position(v);
         let off2 = |x: u32, y: u32| {
             let mid = vec3::lerp(p(x), p(y), 0.5);
-            self.proj.project(mid, self.hint[x as usize], self.l).hit.dist2
+            self.proj
+                .project(mid, self.hint[x as usize], self.l)
+                .hit
+                .dist2
         };
         let old = off2(a, b);
         old > (FAR_POINT * self.l).powi(2) && off2(c, d) <= 0.25 * old
@@ -2391,7 +2400,7 @@ pub struct IsotropicNode;
 impl NodeKind for IsotropicNode {
     type Params = IsotropicParams;
     const KIND: &'static str = "remesh.isotropic";
-    const VERSION: u32 = 16;
+    const VERSION: u32 = 17;
     const DOC: &'static str = "Isotropic remeshing at a target edge length (Botsch & Kobbelt \
         2004, thesis §5.1.1): splits > 4/3 L, collapses < 4/5 L, valence-improving flips, \
         tangential relaxation and projection onto the input surface, for `iterations` rounds. \
