@@ -1172,18 +1172,18 @@ impl State<'_> {
                     order.extend(ring);
                 }
                 let mut pulled = false;
-                if let Some([c, d]) = self.flip_toward(
-                    f,
+                let mut pull = FarPull {
                     p,
                     i,
+                    p_face: input_face[i as usize],
                     far_d2,
-                    &far_face,
                     limit,
+                    far_face: &far_face,
                     input,
-                    &mut stamp,
-                    &mut generation,
-                    &blocked,
-                ) {
+                    stamp: &mut stamp,
+                    generation: &mut generation,
+                };
+                if let Some([c, d]) = self.flip_toward(f, &blocked, &mut pull) {
                     for v in [c, d] {
                         blocked[v as usize] = true;
                         let ring: Vec<u32> = self.neighbor_iter(v).collect();
@@ -1206,27 +1206,22 @@ impl State<'_> {
                     {
                         continue;
                     }
-                    generation += 1;
                     let ring: Vec<u32> = self.neighbor_iter(v).collect();
                     let (q, q_hint) = (self.he.position(v), self.hint[v as usize]);
-                    let near = self
-                        .input_near(q, p, &ring, q_hint, i, limit, input, &mut stamp, generation);
-                    let p_face = input_face[i as usize];
-                    let (tris, hints, faces) = self.fan_move(v, p, p_face);
-                    if !self.move_keeps_distances(
+                    let (tris, hints, faces) = self.fan_move(v, p, pull.p_face);
+                    if !self.replacement_keeps_distances(
+                        q,
+                        &ring,
+                        q_hint,
                         [&tris[0], &tris[1]],
                         [&hints[0], &hints[1]],
                         &faces,
-                        &near,
-                        &far_face,
-                        limit,
-                        far_d2,
-                        input,
+                        &mut pull,
                     ) {
                         continue;
                     }
                     self.he.set_position(v, p);
-                    self.hint[v as usize] = p_face;
+                    self.hint[v as usize] = pull.p_face;
                     blocked[v as usize] = true;
                     let ring: Vec<u32> = self.neighbor_iter(v).collect();
                     for u in ring {
@@ -1237,19 +1232,7 @@ impl State<'_> {
                     break;
                 }
                 if !pulled {
-                    if let Some(m) = self.split_toward(
-                        f,
-                        p,
-                        i,
-                        far_d2,
-                        &far_face,
-                        limit,
-                        input,
-                        &input_face,
-                        &mut stamp,
-                        &mut generation,
-                        &blocked,
-                    ) {
+                    if let Some(m) = self.split_toward(f, &blocked, &mut pull) {
                         blocked.resize(self.he.n_vertex_slots(), false);
                         blocked[m as usize] = true;
                         let ring: Vec<u32> = self.neighbor_iter(m).collect();
@@ -1299,20 +1282,13 @@ impl State<'_> {
     /// distance, the two new triangles keep 30° (or do not lower the pair's smallest angle)
     /// and do not turn over, and nothing near ends up farther
     /// ([`State::move_keeps_distances`]). Returns the new edge's ends.
-    #[allow(clippy::too_many_arguments)]
     fn flip_toward(
         &mut self,
         f: u32,
-        p: V3,
-        i: u32,
-        far_d2: f64,
-        far_face: &[u32],
-        limit: f64,
-        input: &TriMesh,
-        stamp: &mut [u32],
-        generation: &mut u32,
         blocked: &[bool],
+        pull: &mut FarPull<'_>,
     ) -> Option<[u32; 2]> {
+        let (p, far_d2) = (pull.p, pull.far_d2);
         let x = |u: u32| self.he.position(u);
         let mut edges: Vec<(f64, u32)> = (0..3)
             .map(|k| 3 * f + k)
@@ -1359,28 +1335,14 @@ impl State<'_> {
             let hint = |u: u32| self.hint[u as usize];
             let hints_before = [[hint(a), hint(b), hint(c)], [hint(b), hint(a), hint(d)]];
             let hints_after = [[hint(a), hint(d), hint(c)], [hint(b), hint(c), hint(d)]];
-            *generation += 1;
-            let mid = vec3::lerp(x(a), x(b), 0.5);
-            let near = self.input_near(
-                mid,
-                p,
+            if !self.replacement_keeps_distances(
+                vec3::lerp(x(a), x(b), 0.5),
                 &[a, b, c, d],
                 hint(a),
-                i,
-                limit,
-                input,
-                stamp,
-                *generation,
-            );
-            if !self.move_keeps_distances(
                 [&before, &after],
                 [&hints_before, &hints_after],
                 &[h / 3, g / 3],
-                &near,
-                far_face,
-                limit,
-                far_d2,
-                input,
+                pull,
             ) {
                 continue;
             }
@@ -1400,21 +1362,8 @@ impl State<'_> {
     /// neighbour across its side opposite the new vertex (the new vertex then reaches one
     /// vertex further; between two rows of fixed vertices that is the only way to keep the
     /// angles). Returns the new vertex.
-    #[allow(clippy::too_many_arguments)]
-    fn split_toward(
-        &mut self,
-        f: u32,
-        p: V3,
-        i: u32,
-        far_d2: f64,
-        far_face: &[u32],
-        limit: f64,
-        input: &TriMesh,
-        input_face: &[u32],
-        stamp: &mut [u32],
-        generation: &mut u32,
-        blocked: &[bool],
-    ) -> Option<u32> {
+    fn split_toward(&mut self, f: u32, blocked: &[bool], pull: &mut FarPull<'_>) -> Option<u32> {
+        let p = pull.p;
         let mut edges: Vec<(f64, u32)> = (0..3)
             .map(|k| 3 * f + k)
             .filter(|&h| self.he.tag(h) == NONE && !self.he.is_boundary_edge(h))
@@ -1428,7 +1377,7 @@ impl State<'_> {
             })
             .collect();
         edges.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-        let p_face = input_face[i as usize];
+        let p_face = pull.p_face;
         for &(_, h) in &edges {
             let Some(plan) = self.plan_split(h, p, blocked) else {
                 continue;
@@ -1459,27 +1408,14 @@ impl State<'_> {
                 .copied()
                 .filter(|&u| u != NONE)
                 .collect();
-            *generation += 1;
-            let near = self.input_near(
+            if !self.replacement_keeps_distances(
                 mid,
-                p,
                 &corners,
                 hint(a),
-                i,
-                limit,
-                input,
-                stamp,
-                *generation,
-            );
-            if !self.move_keeps_distances(
                 [&before, &after],
                 [&hints_before, &hints_after],
                 &plan.faces,
-                &near,
-                far_face,
-                limit,
-                far_d2,
-                input,
+                pull,
             ) {
                 continue;
             }
@@ -1581,6 +1517,44 @@ impl State<'_> {
                     .map(|u| if u == v { at } else { value(u) })
             })
             .collect()
+    }
+
+    /// Whether the triangles `tris[0]` (around `q`, projected from input face `q_hint`, with
+    /// corners `corners`) may become `tris[1]` on the way to the far point of `pull`:
+    /// [`State::move_keeps_distances`] over the input vertices [`State::input_near`] them.
+    #[allow(clippy::too_many_arguments)]
+    fn replacement_keeps_distances(
+        &self,
+        q: V3,
+        corners: &[u32],
+        q_hint: u32,
+        tris: [&[[V3; 3]]; 2],
+        hints: [&[[u32; 3]]; 2],
+        faces: &[u32],
+        pull: &mut FarPull<'_>,
+    ) -> bool {
+        *pull.generation += 1;
+        let near = self.input_near(
+            q,
+            pull.p,
+            corners,
+            q_hint,
+            pull.i,
+            pull.limit,
+            pull.input,
+            pull.stamp,
+            *pull.generation,
+        );
+        self.move_keeps_distances(
+            tris,
+            hints,
+            faces,
+            &near,
+            pull.far_face,
+            pull.limit,
+            pull.far_d2,
+            pull.input,
+        )
     }
 
     /// The input vertices whose distance from a fan of triangles may change when its centre
@@ -2120,12 +2094,7 @@ impl State<'_> {
                     && self.flip_follows_crease(a, b, c, d)
                     && self.he.flip_ok(h)
                 {
-                    self.he.flip(h);
-                    valence[a as usize] -= 1;
-                    valence[b as usize] -= 1;
-                    valence[c as usize] += 1;
-                    valence[d as usize] += 1;
-                    self.flips += 1;
+                    self.flip_counted(h, &mut valence);
                 }
                 continue;
             }
@@ -2180,14 +2149,22 @@ impl State<'_> {
                 continue;
             }
             if self.he.flip_ok(h) {
-                self.he.flip(h);
-                valence[a as usize] -= 1;
-                valence[b as usize] -= 1;
-                valence[c as usize] += 1;
-                valence[d as usize] += 1;
-                self.flips += 1;
+                self.flip_counted(h, &mut valence);
             }
         }
+    }
+
+    /// Flips the edge of `h` and updates the valences of its quad's corners in `valence`.
+    fn flip_counted(&mut self, h: u32, valence: &mut [i64]) {
+        let (a, b) = (self.he.from(h), self.he.to(h));
+        let c = self.he.from(halfedge::prev(h));
+        let d = self.he.from(halfedge::prev(self.he.opp(h)));
+        self.he.flip(h);
+        valence[a as usize] -= 1;
+        valence[b as usize] -= 1;
+        valence[c as usize] += 1;
+        valence[d as usize] += 1;
+        self.flips += 1;
     }
 
     fn relax_and_project(&mut self, par: Par, project: bool) {
@@ -2310,6 +2287,21 @@ impl State<'_> {
             }
         }
     }
+}
+
+/// The far input point being pulled in ([`State::pull_to_far_points`]): input vertex `i` at
+/// `p` on input face `p_face`, its squared distance `far_d2` from the output, the distance
+/// limit, the faces the far points are closest to, and the stamps of [`State::input_near`].
+struct FarPull<'a> {
+    p: V3,
+    i: u32,
+    p_face: u32,
+    far_d2: f64,
+    limit: f64,
+    far_face: &'a [u32],
+    input: &'a TriMesh,
+    stamp: &'a mut [u32],
+    generation: &'a mut u32,
 }
 
 /// What [`State::split_toward`] would do to one edge: the triangles it replaces (`NONE` for

@@ -1050,6 +1050,20 @@ fn far_points_between_boundary_vertices_get_a_new_vertex() {
     }
 }
 
+/// cgal_armadillo remeshed at `target` (relative): the input, the output (checked to be
+/// manifold) and the absolute target length.
+fn armadillo_at(target: f64) -> (TriMesh, TriMesh, f64) {
+    let input = shared_mesh("organic/cgal_armadillo.off");
+    let params = IsotropicParams {
+        target,
+        ..Default::default()
+    };
+    let out = isotropic(&input, None, &params, Par::Rayon).unwrap();
+    assert_manifold(&out.mesh);
+    let l = out.report.num("target_abs").unwrap();
+    (input, out.mesh, l)
+}
+
 #[test]
 fn long_edges_left_after_the_last_splits_follow_the_surface() {
     // The flips of the last round and after it are followed by no split: a flip that made an
@@ -1057,16 +1071,9 @@ fn long_edges_left_after_the_last_splits_follow_the_surface() {
     // the surface (0.45 L off the armadillo at 2 % before this rule, its largest distance).
     // The far-point pull moves vertices after the last splits too (0.34 L without the same
     // rule there, version 15).
-    let input = shared_mesh("organic/cgal_armadillo.off");
-    let params = IsotropicParams {
-        target: 0.02,
-        ..Default::default()
-    };
-    let out = isotropic(&input, None, &params, Par::Rayon).unwrap();
-    assert_manifold(&out.mesh);
-    let l = out.report.num("target_abs").unwrap();
+    let (input, m, l) = armadillo_at(0.02);
     let bvh = Bvh::new(&input);
-    let m = &out.mesh;
+    let m = &m;
     let mut long = 0;
     let mut worst: f64 = 0.0;
     for t in &m.triangles {
@@ -1100,22 +1107,14 @@ fn chords_across_creases_are_flipped_onto_the_surface() {
     // is steeper than the flip limit. Measured on the armadillo at 1 % (version 16, before
     // this rule): farthest input vertex 0.349 L, farthest edge middle 0.372 L; with it 0.309 L
     // and 0.337 L.
-    let input = shared_mesh("organic/cgal_armadillo.off");
-    let params = IsotropicParams {
-        target: 0.01,
-        ..Default::default()
-    };
-    let out = isotropic(&input, None, &params, Par::Rayon).unwrap();
-    assert_manifold(&out.mesh);
-    let l = out.report.num("target_abs").unwrap();
-    let far = farthest_input_vertex(&input, &out.mesh);
+    let (input, m, l) = armadillo_at(0.01);
+    let far = farthest_input_vertex(&input, &m);
     assert!(
         far < 0.33 * l,
         "an input vertex is {:.3} L off the output",
         far / l
     );
     let bvh = Bvh::new(&input);
-    let m = &out.mesh;
     let worst = m
         .triangles
         .iter()
