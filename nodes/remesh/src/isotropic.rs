@@ -1313,8 +1313,8 @@ impl State<'_> {
                 let x = self.he.valence(v) as i64 + delta - self.target_valence(v);
                 x * x
             };
-            let before = dev(a, 0) + dev(b, 0) + dev(c, 0) + dev(d, 0);
-            if dev(a, -1) + dev(b, -1) + dev(c, 1) + dev(d, 1) > before {
+            let deviation = dev(a, 0) + dev(b, 0) + dev(c, 0) + dev(d, 0);
+            if dev(a, -1) + dev(b, -1) + dev(c, 1) + dev(d, 1) > deviation {
                 continue;
             }
             let before = [[x(a), x(b), x(c)], [x(b), x(a), x(d)]];
