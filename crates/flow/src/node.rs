@@ -28,6 +28,41 @@ pub enum Par {
 }
 
 impl Par {
+    /// Runs `f` on a thread of the current rayon pool when `self` is `Rayon` and the caller is
+    /// not one already (as when a node is called directly rather than by the executor), else
+    /// on the calling thread. A caller outside the pool would otherwise hand every parallel
+    /// loop of `f` to the pool and sleep until it ends: a wake-up per loop, and the pool's
+    /// threads reading data that the caller's core wrote. Inside the pool, the thread that
+    /// starts a loop also works on it.
+    pub fn install<R, F>(self, f: F) -> R
+    where
+        R: Send,
+        F: FnOnce() -> R + Send,
+    {
+        if self == Par::Rayon && rayon::current_thread_index().is_none() {
+            rayon::scope(|_| f())
+        } else {
+            f()
+        }
+    }
+
+    /// Runs `a` and `b`, potentially in parallel when `self` is `Rayon` (`a` first otherwise).
+    pub fn join<A, B, RA, RB>(self, a: A, b: B) -> (RA, RB)
+    where
+        A: FnOnce() -> RA + Send,
+        B: FnOnce() -> RB + Send,
+        RA: Send,
+        RB: Send,
+    {
+        match self {
+            Par::Seq => {
+                let ra = a();
+                (ra, b())
+            }
+            Par::Rayon => rayon::join(a, b),
+        }
+    }
+
     /// Maps `f` over `0..n` and collects in index order, in parallel when `self` is `Rayon`.
     pub fn map_collect<T, F>(self, n: usize, f: F) -> Vec<T>
     where
@@ -447,3 +482,7 @@ pub trait NodeKind: Send + Sync + 'static {
 
     fn run(params: &Self::Params, inputs: &Inputs, ctx: &Ctx) -> Result<Outputs, NodeError>;
 }
+
+#[cfg(test)]
+#[path = "node_test.rs"]
+mod tests;

@@ -28,7 +28,9 @@
 //!    unless the pair spans a crease of the input that the other diagonal follows (its
 //!    middle farther than `FAR_POINT`·L from the input, the other's within half that
 //!    distance): that flip is made whatever the valences, under the angle rule (on the
-//!    armadillo at 1 % such chords were the largest distance, 0.35–0.48 L off);
+//!    armadillo at 1 % such chords were the largest distance, 0.35–0.48 L off); where the
+//!    projection walk gives up on one of the two middles, no such flip (the BVH is not built
+//!    for it);
 //! 4. tangential relaxation: every free vertex moves to the area-weighted centroid of its
 //!    incident triangles' centroids, projected onto its tangent plane (feature vertices slide
 //!    along their chain, see below);
@@ -83,8 +85,10 @@
 //! Termination: a fixed number of rounds, at most 64 split and 4 collapse sweeps per round,
 //! and a vertex cap (local targets are never below L / 20). A target below 1/20 of the input's mean edge length is rejected.
 //! Determinism: every sweep visits edges in slot order; relaxation and projection compute new
-//! positions from old ones (Jacobi) with [`Par::map_collect`], chain vertices then slide one
-//! after the other in vertex order, so the output is bit for bit the same at any thread count.
+//! positions from old ones (Jacobi) with [`Par::map_collect`], while chain vertices slide one
+//! after the other in vertex order (reading only chain parameters and fixed corners), so the
+//! output is bit for bit the same at any thread count. Called from outside a rayon pool with
+//! `Par::Rayon`, the whole run moves onto a pool thread ([`Par::install`]).
 
 use serde::{Deserialize, Serialize};
 
@@ -252,7 +256,7 @@ pub fn isotropic(
     params: &IsotropicParams,
     par: Par,
 ) -> Result<RemeshOutput, RemeshError> {
-    isotropic_with(mesh, curves, params, par, &mut || Ok(()))
+    par.install(|| isotropic_with(mesh, curves, params, par, &mut || Ok(())))
 }
 
 struct State<'a> {
@@ -337,7 +341,19 @@ fn isotropic_with(
         Some(r) => (&r.mesh, moved_curves.as_ref()),
         None => (original, curves),
     };
-    let he = match HalfEdgeMesh::from_trimesh(mesh) {
+    // The half-edge structure and the input's edge table (behind the statistics below, the
+    // projector and the features) at the same time: both are a good part of the set-up.
+    let (he, (diag, mean, area)) = par.join(
+        || HalfEdgeMesh::from_trimesh(mesh),
+        || {
+            (
+                mesh.bbox_diagonal(),
+                mesh.mean_edge_length(),
+                mesh.total_area(),
+            )
+        },
+    );
+    let he = match he {
         Ok(he) => he,
         // Name the defect with the input's own indices.
         Err(e) => {
@@ -347,18 +363,16 @@ fn isotropic_with(
                 .into())
         }
     };
-    let diag = mesh.bbox_diagonal();
     let l = if params.relative {
         params.target * diag
     } else {
         params.target
     };
-    let mean = mesh.mean_edge_length();
     if !(l >= mean / 20.0) {
         return Err(RemeshError::TargetTooSmall { target: l, mean });
     }
     // A regular triangulation with edge L has about A / (√3/2 · L²) vertices.
-    let estimate = mesh.total_area() / (0.75f64.sqrt() * l * l);
+    let estimate = area / (0.75f64.sqrt() * l * l);
     if estimate > params.max_vertices as f64 {
         return Err(RemeshError::TooManyVertices {
             target: l,
@@ -712,8 +726,13 @@ impl State<'_> {
     /// for a vertex inside the chain; for a corner, the end of the chain it sits at (on a
     /// chain from a corner back to itself, the end nearer to `near`).
     fn param_on(&self, u: u32, c: u32, near: f64) -> f64 {
+        self.param_on_in(&self.param, u, c, near)
+    }
+
+    /// [`Self::param_on`] with the chain vertices' parameters taken from `param`.
+    fn param_on_in(&self, param: &[f64], u: u32, c: u32, near: f64) -> f64 {
         if self.role[u as usize] == Role::Chain(c) {
-            return self.param[u as usize];
+            return param[u as usize];
         }
         let ch = &self.chains[c as usize];
         let (first, last) = ch.ends();
@@ -1009,6 +1028,14 @@ impl State<'_> {
     /// steps; each projected onto the input surface) when that raises the smallest angle of
     /// its triangles and keeps them nearly flat. A few sweeps in face order.
     fn improve_sliver_vertices(&mut self) {
+        // What `improve_vertex` finds depends only on the positions of the vertex and its
+        // neighbours (connectivity does not change here): a vertex that found no better place
+        // is not tried again until one of them has moved. Moves are numbered from 1;
+        // `failed[v]` is the number of moves made when v last found nothing (0: never).
+        let nv = self.he.n_vertex_slots();
+        let mut moved_at = vec![0u32; nv];
+        let mut failed = vec![0u32; nv];
+        let mut moves = 1u32;
         for _ in 0..3 {
             let mut any = false;
             for f in 0..(self.he.n_halfedge_slots() / 3) as u32 {
@@ -1021,8 +1048,22 @@ impl State<'_> {
                     continue;
                 }
                 for v in t {
-                    if self.role[v as usize] == Role::Free && !self.he.is_boundary_vertex(v) {
-                        any |= self.improve_vertex(v);
+                    if self.role[v as usize] != Role::Free || self.he.is_boundary_vertex(v) {
+                        continue;
+                    }
+                    let f = failed[v as usize];
+                    if f > 0
+                        && moved_at[v as usize] < f
+                        && self.neighbor_iter(v).all(|u| moved_at[u as usize] < f)
+                    {
+                        continue;
+                    }
+                    if self.improve_vertex(v) {
+                        moves += 1;
+                        moved_at[v as usize] = moves;
+                        any = true;
+                    } else {
+                        failed[v as usize] = moves + 1;
                     }
                 }
             }
@@ -2033,15 +2074,17 @@ impl State<'_> {
     /// (a ridge running from `c` to `d`) as a chord.
     fn flip_follows_crease(&self, a: u32, b: u32, c: u32, d: u32) -> bool {
         let p = |v: u32| self.he.position(v);
+        // Where the walk gives up, no flip: the test is not worth building the BVH for.
         let off2 = |x: u32, y: u32| {
             let mid = vec3::lerp(p(x), p(y), 0.5);
             self.proj
-                .project(mid, self.hint[x as usize], self.l)
-                .hit
-                .dist2
+                .project_walk(mid, self.hint[x as usize], self.l)
+                .map(|hit| hit.dist2)
         };
-        let old = off2(a, b);
-        old > (FAR_POINT * self.l).powi(2) && off2(c, d) <= 0.25 * old
+        match (off2(a, b), off2(c, d)) {
+            (Some(old), Some(new)) => old > (FAR_POINT * self.l).powi(2) && new <= 0.25 * old,
+            _ => false,
+        }
     }
 
     /// One flip sweep (module docs, step 3). With `neutral`, a flip that leaves the valence
@@ -2175,55 +2218,64 @@ impl State<'_> {
         let hint = &self.hint;
         let far = self.l;
         // Per face: its unnormalised normal (2 × area along the normal), its corner sum
-        // weighted by a third of that length, and the length itself.
-        let faces: Vec<(V3, V3, f64)> = par.map_collect(he.n_halfedge_slots() / 3, |f| {
-            let f = f as u32;
-            if !he.is_face_alive(f) {
-                return ([0.0; 3], [0.0; 3], 0.0);
-            }
+        // weighted by a third of that length, and the length itself. Computed by each of its
+        // corners (three times over): one parallel loop per sweep instead of two, which on
+        // meshes of a few thousand vertices costs less than the second loop's start.
+        let face_value = |f: u32| {
             let [x, y, z] = he.face_vertices(f).map(|u| he.position(u));
             let nf = vec3::cross(vec3::sub(y, x), vec3::sub(z, x));
             let a = vec3::norm(nf);
             (nf, vec3::scale(vec3::add(vec3::add(x, y), z), a / 3.0), a)
-        });
-        let moved: Vec<(V3, u32, u8)> = par.map_collect(nv, |v| {
-            let v = v as u32;
-            let p = he.position(v);
-            if !he.is_vertex_alive(v) {
-                return (p, NONE, 0);
-            }
-            match role[v as usize] {
-                Role::Corner => (p, hint[v as usize], 0),
-                // Moved below, one after the other.
-                Role::Chain(_) => (p, NONE, 0),
-                Role::Free => {
-                    // Centroid of the incident triangles' centroids weighted by their areas,
-                    // moved within the tangent plane of the area-weighted vertex normal.
-                    let mut s = [0.0; 3];
-                    let mut nsum = [0.0; 3];
-                    let mut w = 0.0;
-                    for k in he.outgoing(v) {
-                        let (nf, c, a) = faces[halfedge::face_of(k) as usize];
-                        nsum = vec3::add(nsum, nf);
-                        s = vec3::add(s, c);
-                        w += a;
+        };
+        // Chain vertices slide along their chains meanwhile: that reads their parameters and
+        // fixed corners only, and their new positions are written after the free vertices'
+        // moves, which see the old ones (as when the slide ran after them).
+        let mut param = std::mem::take(&mut self.param);
+        let st = &*self;
+        let (moved, slid) = par.join(
+            || {
+                par.map_collect(nv, |v| {
+                    let v = v as u32;
+                    let p = he.position(v);
+                    if !he.is_vertex_alive(v) {
+                        return (p, NONE, 0);
                     }
-                    let q = if w > 0.0 {
-                        let u = vec3::sub(vec3::scale(s, 1.0 / w), p);
-                        let n = vec3::normalize(nsum);
-                        vec3::add(p, vec3::sub(u, vec3::scale(n, vec3::dot(n, u))))
-                    } else {
-                        p
-                    };
-                    if project {
-                        let r = proj.project(q, hint[v as usize], far);
-                        (r.hit.point, r.hit.face, 1 + r.fallback as u8)
-                    } else {
-                        (q, hint[v as usize], 0)
+                    match role[v as usize] {
+                        Role::Corner => (p, hint[v as usize], 0),
+                        // Slid by the other side of the join.
+                        Role::Chain(_) => (p, NONE, 0),
+                        Role::Free => {
+                            // Centroid of the incident triangles' centroids weighted by their
+                            // areas, moved within the tangent plane of the area-weighted
+                            // vertex normal.
+                            let mut s = [0.0; 3];
+                            let mut nsum = [0.0; 3];
+                            let mut w = 0.0;
+                            for k in he.outgoing(v) {
+                                let (nf, c, a) = face_value(halfedge::face_of(k));
+                                nsum = vec3::add(nsum, nf);
+                                s = vec3::add(s, c);
+                                w += a;
+                            }
+                            let q = if w > 0.0 {
+                                let u = vec3::sub(vec3::scale(s, 1.0 / w), p);
+                                let n = vec3::normalize(nsum);
+                                vec3::add(p, vec3::sub(u, vec3::scale(n, vec3::dot(n, u))))
+                            } else {
+                                p
+                            };
+                            if project {
+                                let r = proj.project(q, hint[v as usize], far);
+                                (r.hit.point, r.hit.face, 1 + r.fallback as u8)
+                            } else {
+                                (q, hint[v as usize], 0)
+                            }
+                        }
                     }
-                }
-            }
-        });
+                })
+            },
+            || st.slide_chain_params(&mut param),
+        );
         for (v, (p, f, k)) in moved.into_iter().enumerate() {
             self.projections += (k > 0) as usize;
             self.fallbacks += (k > 1) as usize;
@@ -2232,15 +2284,20 @@ impl State<'_> {
                 self.hint[v] = f;
             }
         }
-        self.slide_chain_vertices();
+        self.param = param;
+        for (v, p) in slid {
+            self.he.set_position(v, p);
+        }
     }
 
     /// Every vertex inside a chain moves to the middle (in arc length) of its two chain
     /// neighbours, on the chain, unless that would make one of its two feature edges stray
     /// from the chain by more than the tolerance (so bends stay in place). Gauss–Seidel in
     /// vertex order: few vertices, and each move is checked against its neighbours' current
-    /// positions.
-    fn slide_chain_vertices(&mut self) {
+    /// places. Updates `param` and returns the new positions (the mesh is not touched, so
+    /// that it can run beside the free vertices' relaxation).
+    fn slide_chain_params(&self, param: &mut [f64]) -> Vec<(u32, V3)> {
+        let mut slid = Vec::new();
         for v in 0..self.he.n_vertex_slots() as u32 {
             let Role::Chain(c) = self.role[v as usize] else {
                 continue;
@@ -2257,9 +2314,9 @@ impl State<'_> {
             if y == NONE {
                 continue;
             }
-            let s = self.param[v as usize];
-            let sx = self.param_on(x, c, s);
-            let sy = self.param_on(y, c, s);
+            let s = param[v as usize];
+            let sx = self.param_on_in(param, x, c, s);
+            let sy = self.param_on_in(param, y, c, s);
             let ch = &self.chains[c as usize];
             // The neighbours' places on the chain (where they are, or will be once slid onto
             // it: a curve chain starts at the edge path, off the network's polyline).
@@ -2278,14 +2335,15 @@ impl State<'_> {
                 ch.sharpest_between(sx, sy).filter(|&k| ok(k))
             };
             if let Some(t) = to {
-                self.he.set_position(v, ch.point_at(t));
-                self.param[v as usize] = t;
+                slid.push((v, ch.point_at(t)));
+                param[v as usize] = t;
             } else {
                 // Onto the chain at its own parameter: a no-op on a chain of input edges, and
                 // on a curve chain never farther from the network's polyline than before.
-                self.he.set_position(v, ch.point_at(s));
+                slid.push((v, ch.point_at(s)));
             }
         }
+        slid
     }
 }
 
@@ -2392,7 +2450,7 @@ pub struct IsotropicNode;
 impl NodeKind for IsotropicNode {
     type Params = IsotropicParams;
     const KIND: &'static str = "remesh.isotropic";
-    const VERSION: u32 = 17;
+    const VERSION: u32 = 18;
     const DOC: &'static str = "Isotropic remeshing at a target edge length (Botsch & Kobbelt \
         2004, thesis §5.1.1): splits > 4/3 L, collapses < 4/5 L, valence-improving flips, \
         tangential relaxation and projection onto the input surface, for `iterations` rounds. \

@@ -93,13 +93,37 @@ impl<'a> Projector<'a> {
     /// the module docs); the exact BVH answer when `start` is not a face, when the walk takes
     /// more than [`MAX_STEPS`] moves, or when it ends farther than `far` from `p`.
     pub fn project(&self, p: V3, start: u32, far: f64) -> Projection {
-        let nf = self.mesh.n_faces() as u32;
-        if start >= nf {
+        if start >= self.mesh.n_faces() as u32 {
             return Projection {
                 hit: self.bvh().closest(p),
                 fallback: true,
             };
         }
+        match self.walk(p, start, far) {
+            Ok(hit) => Projection {
+                hit,
+                fallback: false,
+            },
+            Err(cur) => Projection {
+                hit: self.bvh().closest_with_hint(p, cur),
+                fallback: true,
+            },
+        }
+    }
+
+    /// The walk of [`Self::project`] alone: `None` where `project` would ask the BVH. For
+    /// tests that can do without an answer, so that a rare failed walk does not build the
+    /// BVH (on a 200k-face input that costs as much as a few rounds of remeshing).
+    pub fn project_walk(&self, p: V3, start: u32, far: f64) -> Option<Hit> {
+        if start >= self.mesh.n_faces() as u32 {
+            return None;
+        }
+        self.walk(p, start, far).ok()
+    }
+
+    /// The walk from face `start` (a face of the input): the hit, or the face it ended on when
+    /// it gave up.
+    fn walk(&self, p: V3, start: u32, far: f64) -> Result<Hit, u32> {
         let topo = self.mesh.topology();
         let mut cur = start;
         let (mut d2, mut bary) = self.test(cur, p);
@@ -163,10 +187,7 @@ impl<'a> Projector<'a> {
             }
         }
         if !settled || !(d2 <= far * far) {
-            return Projection {
-                hit: self.bvh().closest_with_hint(p, cur),
-                fallback: true,
-            };
+            return Err(cur);
         }
         let [a, b, c] = self.mesh.face_points(cur as usize);
         let point = [
@@ -174,16 +195,13 @@ impl<'a> Projector<'a> {
             bary[0] * a[1] + bary[1] * b[1] + bary[2] * c[1],
             bary[0] * a[2] + bary[1] * b[2] + bary[2] * c[2],
         ];
-        Projection {
-            hit: Hit {
-                distance: d2.sqrt(),
-                dist2: d2,
-                face: cur,
-                bary,
-                point,
-            },
-            fallback: false,
-        }
+        Ok(Hit {
+            distance: d2.sqrt(),
+            dist2: d2,
+            face: cur,
+            bary,
+            point,
+        })
     }
 }
 

@@ -118,3 +118,27 @@ fn bad_start_and_far_points_fall_back_to_the_bvh() {
     let none = proj.project(q, m.n_faces() as u32, 1.0);
     assert!(none.fallback);
 }
+
+#[test]
+fn walk_alone_answers_where_the_walk_does_and_nothing_else() {
+    // The two sheets of the test above: where `project` keeps the walk's answer,
+    // `project_walk` gives the same hit; where `project` needs the BVH, it gives none (and
+    // builds no BVH).
+    let (mut p, mut t) = grid(4, 0.0, 0.0);
+    let (p2, t2) = grid(2, 0.5, 0.1);
+    let off = p.len() as u32;
+    p.extend(p2);
+    t.extend(t2.into_iter().map(|f| f.map(|v| v + off)));
+    let m = TriMesh::new(p, t);
+    let proj = Projector::new(&m);
+    let q = [0.75, 0.5, 0.09];
+    let walked = proj
+        .project_walk(q, 0, 1.0)
+        .expect("the walk settles within `far`");
+    assert_eq!(walked, proj.project(q, 0, 1.0).hit);
+    assert!((walked.distance - 0.09).abs() < 1e-12);
+    assert_eq!(proj.project_walk(q, 0, 0.05), None);
+    assert_eq!(proj.project_walk(q, u32::MAX, 1.0), None);
+    assert_eq!(proj.project_walk(q, m.n_faces() as u32, 1.0), None);
+    assert!(proj.bvh.get().is_none(), "the BVH was built");
+}
