@@ -444,6 +444,17 @@ pub fn eigenbasis_with_cancel(
     par: Par,
     cancelled: &(dyn Fn() -> bool + Sync),
 ) -> Result<EigenBasis, EigenbasisError> {
+    // Every Lanczos step runs several short parallel loops: started from a pool thread, that
+    // thread works on them too instead of waiting for the pool to wake up.
+    par.install(|| eigenbasis_on(op, params, par, cancelled))
+}
+
+fn eigenbasis_on(
+    op: &LaplacianOperator,
+    params: &EigenbasisParams,
+    par: Par,
+    cancelled: &(dyn Fn() -> bool + Sync),
+) -> Result<EigenBasis, EigenbasisError> {
     let n_all = op.mass.len();
     let l_all = &op.stiffness;
     if l_all.nrows() != n_all || l_all.ncols() != n_all {
