@@ -2106,6 +2106,20 @@ impl State<'_> {
             .into_iter()
             .unzip()
         };
+        // Per face, the cosine of its smallest angle and its unnormalised normal: each face
+        // belongs to three pairs (positions do not move during the sweep, and the two faces
+        // of every flip are refreshed). `min_angle_cos` does not depend on the corners' order.
+        let mut faces: Vec<(f64, V3)> = {
+            let he = &self.he;
+            par.map_collect(n as usize / 3, |f| {
+                let f = f as u32;
+                if !he.is_face_alive(f) {
+                    return (1.0, [0.0; 3]);
+                }
+                let [x, y, z] = he.face_vertices(f).map(|u| he.position(u));
+                (min_angle_cos(x, y, z), he.face_normal_raw(f))
+            })
+        };
         for h in 0..n {
             if !self.he.is_halfedge_alive(h)
                 || !self.he.is_canonical(h)
@@ -2118,6 +2132,7 @@ impl State<'_> {
             let (a, b) = (self.he.from(h), self.he.to(h));
             let c = self.he.from(halfedge::prev(h));
             let d = self.he.from(halfedge::prev(g));
+            let (fh, fg) = (halfedge::face_of(h), halfedge::face_of(g));
             let dev = |v: u32, delta: i64| {
                 let x = valence[v as usize] + delta - target[v as usize];
                 x * x
@@ -2125,12 +2140,11 @@ impl State<'_> {
             let before = dev(a, 0) + dev(b, 0) + dev(c, 0) + dev(d, 0);
             let after = dev(a, -1) + dev(b, -1) + dev(c, 1) + dev(d, 1);
             let p = |v: u32| self.he.position(v);
-            let old = min_angle_cos(p(a), p(b), p(c)).max(min_angle_cos(p(b), p(a), p(d)));
+            let old = faces[fh as usize].0.max(faces[fg as usize].0);
             // Keep the surface: no flip across a fold steeper than the collapse limit, unless
             // the pair cuts across a crease of the input that the other diagonal follows
             // (then whatever the valences, if the angles allow).
-            let n1 = self.he.face_normal_raw(halfedge::face_of(h));
-            let n2 = self.he.face_normal_raw(halfedge::face_of(g));
+            let (n1, n2) = (faces[fh as usize].1, faces[fg as usize].1);
             if vec3::dot(n1, n2) < cos_turn * vec3::norm(n1) * vec3::norm(n2) {
                 let new = min_angle_cos(p(d), p(b), p(c)).max(min_angle_cos(p(c), p(a), p(d)));
                 if new <= old.max(COS_FLIP_MIN_ANGLE)
@@ -2138,6 +2152,7 @@ impl State<'_> {
                     && self.he.flip_ok(h)
                 {
                     self.flip_counted(h, &mut valence);
+                    self.refresh_faces(&mut faces, [fh, fg]);
                 }
                 continue;
             }
@@ -2193,7 +2208,16 @@ impl State<'_> {
             }
             if self.he.flip_ok(h) {
                 self.flip_counted(h, &mut valence);
+                self.refresh_faces(&mut faces, [fh, fg]);
             }
+        }
+    }
+
+    /// Recomputes the smallest-angle cosine and normal of faces `fs` in a flip sweep's table.
+    fn refresh_faces(&self, faces: &mut [(f64, V3)], fs: [u32; 2]) {
+        for f in fs {
+            let [x, y, z] = self.he.face_vertices(f).map(|u| self.he.position(u));
+            faces[f as usize] = (min_angle_cos(x, y, z), self.he.face_normal_raw(f));
         }
     }
 
