@@ -85,17 +85,22 @@ fn walk_crosses_many_faces_of_a_plane() {
     assert!(vec3::dist(got.hit.point, [1.0, 0.5, 0.0]) < 1e-12);
 }
 
-#[test]
-fn bad_start_and_far_points_fall_back_to_the_bvh() {
-    // Two sheets: one at z = 0 over x in [0, 1] and one at z = 0.1 over x in [0.5, 1.5]. A
-    // point just below the upper sheet, walked from the lower one, stops at a local minimum
-    // 0.09 away; with `far` below that the BVH finds the upper sheet 0.01 away.
+/// One sheet at z = 0 over x in [0, 1] (faces 0..32) and one at z = 0.1 over x in [0.5, 1.5].
+fn two_sheets() -> TriMesh {
     let (mut p, mut t) = grid(4, 0.0, 0.0);
     let (p2, t2) = grid(2, 0.5, 0.1);
     let off = p.len() as u32;
     p.extend(p2);
     t.extend(t2.into_iter().map(|f| f.map(|v| v + off)));
-    let m = TriMesh::new(p, t);
+    TriMesh::new(p, t)
+}
+
+#[test]
+fn bad_start_and_far_points_fall_back_to_the_bvh() {
+    // Two sheets: one at z = 0 over x in [0, 1] and one at z = 0.1 over x in [0.5, 1.5]. A
+    // point just below the upper sheet, walked from the lower one, stops at a local minimum
+    // 0.09 away; with `far` below that the BVH finds the upper sheet 0.01 away.
+    let m = two_sheets();
     let proj = Projector::new(&m);
     let bvh = proj.bvh();
     let q = [0.75, 0.5, 0.09];
@@ -124,12 +129,7 @@ fn walk_alone_answers_where_the_walk_does_and_nothing_else() {
     // The two sheets of the test above: where `project` keeps the walk's answer,
     // `project_walk` gives the same hit; where `project` needs the BVH, it gives none (and
     // builds no BVH).
-    let (mut p, mut t) = grid(4, 0.0, 0.0);
-    let (p2, t2) = grid(2, 0.5, 0.1);
-    let off = p.len() as u32;
-    p.extend(p2);
-    t.extend(t2.into_iter().map(|f| f.map(|v| v + off)));
-    let m = TriMesh::new(p, t);
+    let m = two_sheets();
     let proj = Projector::new(&m);
     let q = [0.75, 0.5, 0.09];
     let walked = proj
