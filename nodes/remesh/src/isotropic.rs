@@ -1890,52 +1890,58 @@ impl State<'_> {
         // number in `changed`, and an edge refused after the last change of its four vertices
         // is refused again without looking (same outcome, far fewer tries in the later sweeps).
         let mut collapses = 0u32;
+        let nh = self.he.n_halfedge_slots();
         let mut changed = vec![0u32; self.he.n_vertex_slots()];
-        let mut refused = vec![0u32; self.he.n_halfedge_slots()];
+        let mut refused = vec![0u32; nh];
+        // After the first sweep, an edge none of whose four vertices changed since it was
+        // last looked at is skipped by every test below (long, refused, or gone; an end
+        // touched by a collapse is such a change): when a sweep changed few vertices, the
+        // next one visits only the edges of the faces around them (a bit per half-edge),
+        // and, within that sweep, the edges that its own collapses change further on.
+        let mut todo: Option<Vec<u64>> = None;
         // A few sweeps per round: edges left short now are retried in the next round, after
         // relaxation has moved their neighbours.
         for _ in 0..4 {
             let mut any = false;
-            let n = self.he.n_halfedge_slots() as u32;
+            let first_stamp = collapses + 2;
             // A vertex takes part in one collapse per sweep: the sweep thins the mesh evenly
             // instead of merging a growing vertex again and again.
             let mut touched = vec![false; self.he.n_vertex_slots()];
-            for h in 0..n {
-                if !self.he.is_halfedge_alive(h) || !self.he.is_canonical(h) {
-                    continue;
-                }
-                let (a, b) = (self.he.from(h), self.he.to(h));
-                if touched[a as usize] || touched[b as usize] {
-                    continue;
-                }
-                let lo = 4.0 / 5.0 * (0.5 * (self.size[a as usize] + self.size[b as usize]));
-                if self.len2(a, b) >= lo * lo {
-                    continue;
-                }
-                let g = self.he.opp(h);
-                if refused[h as usize] > 0 {
-                    let apex = |k: u32| self.he.from(halfedge::prev(k));
-                    let mut last = changed[a as usize]
-                        .max(changed[b as usize])
-                        .max(changed[apex(h) as usize]);
-                    if g != NONE {
-                        last = last.max(changed[apex(g) as usize]);
-                    }
-                    // Refused in state `refused[h]`, which included every change up to it.
-                    if refused[h as usize] >= last {
-                        debug_assert!(
-                            !self.collapse_allowed(h) && (g == NONE || !self.collapse_allowed(g)),
-                            "a collapse skipped as refused before is allowed now"
-                        );
-                        continue;
+            let mut h = 0u32;
+            loop {
+                // The next half-edge to look at: every one, or the next marked one (debug
+                // builds look at every one and check that the unmarked ones are skipped).
+                if !cfg!(debug_assertions) {
+                    if let Some(bits) = &todo {
+                        match next_marked(bits, h) {
+                            Some(k) => h = k,
+                            None => break,
+                        }
                     }
                 }
+                if h as usize >= nh {
+                    break;
+                }
+                let cur = h;
+                h += 1;
+                if todo.as_ref().is_some_and(|bits| !is_marked(bits, cur)) {
+                    debug_assert!(
+                        !self.worth_trying(cur, &touched, &refused, &changed),
+                        "an unmarked edge is worth trying"
+                    );
+                    continue;
+                }
+                if !self.worth_trying(cur, &touched, &refused, &changed) {
+                    continue;
+                }
+                let (a, b) = (self.he.from(cur), self.he.to(cur));
+                let g = self.he.opp(cur);
                 // Remove the vertex with fewer edges when both ways are allowed, else the one
                 // that is allowed.
                 let (first, second) = if g != NONE && self.he.valence(b) < self.he.valence(a) {
-                    (g, h)
+                    (g, cur)
                 } else {
-                    (h, g)
+                    (cur, g)
                 };
                 // Between two free vertices both ways merge at the middle and test the same
                 // triangles (up to the rounding of the middle): when the first way is refused,
@@ -1949,7 +1955,7 @@ impl State<'_> {
                 } else {
                     // States are numbered from 1 (the state after `collapses` collapses is
                     // `collapses + 1`); 0 means "never refused".
-                    refused[h as usize] = collapses + 1;
+                    refused[cur as usize] = collapses + 1;
                     continue;
                 };
                 let target = self.he.to(pick);
@@ -1959,10 +1965,79 @@ impl State<'_> {
                 for u in self.neighbor_iter(target) {
                     changed[u as usize] = collapses + 1;
                 }
+                if let Some(bits) = &mut todo {
+                    self.mark_edges_around(target, bits, cur + 1);
+                    for u in self.neighbor_iter(target) {
+                        self.mark_edges_around(u, bits, cur + 1);
+                    }
+                }
                 any = true;
             }
             if !any {
                 break;
+            }
+            let stamped: Vec<u32> = (0..changed.len() as u32)
+                .filter(|&v| changed[v as usize] >= first_stamp && self.he.is_vertex_alive(v))
+                .collect();
+            todo = (stamped.len() * 8 <= changed.len()).then(|| {
+                let mut bits = vec![0u64; nh.div_ceil(64)];
+                for &v in &stamped {
+                    self.mark_edges_around(v, &mut bits, 0);
+                }
+                bits
+            });
+        }
+    }
+
+    /// Whether a collapse sweep tries the edge of canonical half-edge `h`: alive, no end
+    /// collapsed into in this sweep (`touched`), shorter than the collapse length, and not
+    /// refused since the last change of its ends and apexes.
+    fn worth_trying(&self, h: u32, touched: &[bool], refused: &[u32], changed: &[u32]) -> bool {
+        if !self.he.is_halfedge_alive(h) || !self.he.is_canonical(h) {
+            return false;
+        }
+        let (a, b) = (self.he.from(h), self.he.to(h));
+        if touched[a as usize] || touched[b as usize] {
+            return false;
+        }
+        let lo = 4.0 / 5.0 * (0.5 * (self.size[a as usize] + self.size[b as usize]));
+        if self.len2(a, b) >= lo * lo {
+            return false;
+        }
+        if refused[h as usize] > 0 {
+            let g = self.he.opp(h);
+            let apex = |k: u32| self.he.from(halfedge::prev(k));
+            let mut last = changed[a as usize]
+                .max(changed[b as usize])
+                .max(changed[apex(h) as usize]);
+            if g != NONE {
+                last = last.max(changed[apex(g) as usize]);
+            }
+            // Refused in state `refused[h]`, which included every change up to it.
+            if refused[h as usize] >= last {
+                debug_assert!(
+                    !self.collapse_allowed(h) && (g == NONE || !self.collapse_allowed(g)),
+                    "a collapse skipped as refused before is allowed now"
+                );
+                return false;
+            }
+        }
+        true
+    }
+
+    /// Marks in `bits` the half-edges (and their twins) of the faces around `v` from index
+    /// `from` on: the edges that have `v` as an end or as the apex of one of their triangles.
+    fn mark_edges_around(&self, v: u32, bits: &mut [u64], from: u32) {
+        let mut mark = |k: u32| {
+            if k != NONE && k >= from {
+                bits[(k / 64) as usize] |= 1 << (k % 64);
+            }
+        };
+        for o in self.he.outgoing(v) {
+            let f = halfedge::face_of(o);
+            for k in [3 * f, 3 * f + 1, 3 * f + 2] {
+                mark(k);
+                mark(self.he.opp(k));
             }
         }
     }
@@ -2430,6 +2505,23 @@ const COS_FLIP_MIN_ANGLE: f64 = 0.866_025_403_784_438_6;
 /// Collapses may not create an angle below both the old smallest angle around them and 20°
 /// (its cosine).
 const COS_COLLAPSE_MIN_ANGLE: f64 = 0.939_692_620_785_908_4;
+
+fn is_marked(bits: &[u64], k: u32) -> bool {
+    bits[(k / 64) as usize] & (1 << (k % 64)) != 0
+}
+
+/// The first half-edge at or after `from` whose bit is set in `bits`.
+fn next_marked(bits: &[u64], from: u32) -> Option<u32> {
+    let mut w = (from / 64) as usize;
+    let mut word = *bits.get(w)? & (u64::MAX << (from % 64));
+    loop {
+        if word != 0 {
+            return Some(w as u32 * 64 + word.trailing_zeros());
+        }
+        w += 1;
+        word = *bits.get(w)?;
+    }
+}
 
 /// Whether triangle `t` keeps a non-degenerate area and turns by at most the angle whose
 /// cosine is `cos_max` (at least 0: turns up to 90°) from the (unnormalised) normal `n_old`
