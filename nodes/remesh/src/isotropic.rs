@@ -472,7 +472,7 @@ fn isotropic_with(
         if params.feature_grading > 0.0 {
             st.update_sizes();
         }
-        st.split_long(params.max_vertices)?;
+        st.split_long(params.max_vertices, par)?;
         check()?;
         st.collapse_short();
         st.equalize_valences(par, true);
@@ -654,22 +654,31 @@ impl State<'_> {
         cap[i].min(cap[(i + 1).min(cap.len() - 1)])
     }
 
-    fn split_long(&mut self, max_vertices: usize) -> Result<(), RemeshError> {
+    fn split_long(&mut self, max_vertices: usize, par: Par) -> Result<(), RemeshError> {
         for _ in 0..64 {
             let mut any = false;
             // Longest edges first (ties by slot): longest-edge bisection never makes a
             // triangle thinner than half its smallest angle, while splitting in slot order
             // can bisect the short sides of a triangle again and again, making needles whose
             // long sides never get shorter (the sweep then only stops at the vertex cap).
-            let mut long: Vec<(f64, u32)> = (0..self.he.n_halfedge_slots() as u32)
-                .filter(|&h| self.he.is_halfedge_alive(h) && self.he.is_canonical(h))
-                .filter_map(|h| {
-                    let (a, b) = (self.he.from(h), self.he.to(h));
-                    let l2 = self.len2(a, b);
-                    let hi2 = Self::split_len2(self.size[a as usize], self.size[b as usize]);
-                    (l2 > hi2).then_some((l2, h))
+            // Found in parallel over fixed slot chunks (the sort fixes the order anyway).
+            const CHUNK: usize = 8192;
+            let nh = self.he.n_halfedge_slots();
+            let st = &*self;
+            let mut long: Vec<(f64, u32)> = par
+                .map_collect(nh.div_ceil(CHUNK), |c| {
+                    (c * CHUNK..(c * CHUNK + CHUNK).min(nh))
+                        .map(|h| h as u32)
+                        .filter(|&h| st.he.is_halfedge_alive(h) && st.he.is_canonical(h))
+                        .filter_map(|h| {
+                            let (a, b) = (st.he.from(h), st.he.to(h));
+                            let l2 = st.len2(a, b);
+                            let hi2 = Self::split_len2(st.size[a as usize], st.size[b as usize]);
+                            (l2 > hi2).then_some((l2, h))
+                        })
+                        .collect::<Vec<_>>()
                 })
-                .collect();
+                .concat();
             long.sort_by(|x, y| y.0.total_cmp(&x.0).then(x.1.cmp(&y.1)));
             for (_, h) in long {
                 if !self.he.is_halfedge_alive(h) || !self.he.is_canonical(h) {
