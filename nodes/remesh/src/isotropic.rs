@@ -1910,7 +1910,8 @@ impl State<'_> {
         let mut todo: Option<Vec<u64>> = None;
         // A few sweeps per round: edges left short now are retried in the next round, after
         // relaxation has moved their neighbours.
-        for _ in 0..4 {
+        const SWEEPS: usize = 4;
+        for sweep in 0..SWEEPS {
             let mut any = false;
             let first_stamp = collapses + 2;
             // A vertex takes part in one collapse per sweep: the sweep thins the mesh evenly
@@ -1982,7 +1983,7 @@ impl State<'_> {
                 }
                 any = true;
             }
-            if !any {
+            if !any || sweep + 1 == SWEEPS {
                 break;
             }
             let stamped: Vec<u32> = (0..changed.len() as u32)
