@@ -81,6 +81,10 @@
 //! Boundary edges are features, so boundaries are preserved. How curves become mesh edges is in
 //! [`crate::features`]; sharp-edge chains that end freely at both ends and are shorter than
 //! `min_feature_length` target lengths are dropped (a feature below the scale, thesis §4.3).
+//! Tips narrower than L and corners of the part where creases meet ([`crate::tips`]) stay
+//! fixed like feature corners, also when the creases themselves are not features: without
+//! that, which of a box's corners the output cuts off (by up to 0.64 L on cgal_fandisk at
+//! 2 %, curves only) depends on the order of the sweeps.
 //!
 //! Termination: a fixed number of rounds, at most 64 split and 4 collapse sweeps per round,
 //! and a vertex cap (local targets are never below L / 20). A target below 1/20 of the input's mean edge length is rejected.
@@ -104,7 +108,7 @@ use crestflow_geom::{FeatureCurveNetwork, TriMesh};
 use crate::chain::Chain;
 use crate::features::{build_chains, mark_features, prune_short_sharp_chains, FeatureError};
 use crate::project::Projector;
-use crate::tips::tip_vertices;
+use crate::tips::{part_corners, tip_vertices};
 
 /// Parameters of `remesh.isotropic`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -399,8 +403,10 @@ fn isotropic_with(
         .map(|v| chains.is_corner[v] || chains.vertex_chain[v] != u32::MAX)
         .collect();
     let tips = tip_vertices(mesh, l, &on_feature, par);
+    // So do the corners of a part where creases meet, when the creases are not features.
+    let corners = part_corners(mesh, l, params.sharp_angle_deg, &on_feature, &tips, par);
     let mut is_tip = vec![false; mesh.n_vertices()];
-    for &t in &tips {
+    for &t in tips.iter().chain(&corners) {
         is_tip[t as usize] = true;
     }
 
@@ -526,6 +532,7 @@ fn isotropic_with(
             chains.is_corner.iter().filter(|&&c| c).count(),
         )
         .set("tip_vertices", tips.len())
+        .set("part_corners", corners.len())
         .set("splits", st.splits)
         .set("collapses", st.collapses)
         .set("flips", st.flips)
@@ -2576,7 +2583,7 @@ pub struct IsotropicNode;
 impl NodeKind for IsotropicNode {
     type Params = IsotropicParams;
     const KIND: &'static str = "remesh.isotropic";
-    const VERSION: u32 = 18;
+    const VERSION: u32 = 19;
     const DOC: &'static str = "Isotropic remeshing at a target edge length (Botsch & Kobbelt \
         2004, thesis §5.1.1): splits > 4/3 L, collapses < 4/5 L, valence-improving flips, \
         tangential relaxation and projection onto the input surface, for `iterations` rounds. \
@@ -2589,11 +2596,14 @@ impl NodeKind for IsotropicNode {
         feature_tolerance · L from the polyline it replaces (bends are kept); with \
         feature_grading > 0 the target shrinks near bends that need shorter edges. Tips \
         narrower than the target (a disk of radius L/2 closing the surface by at least pi, \
-        e.g. the end of a finger) keep a fixed vertex at their apex. Flips and \
+        e.g. the end of a finger) keep a fixed vertex at their apex, and so do corners where \
+        three or more edges sharper than sharp_angle_deg meet and the surface turns by at \
+        least 0.4 pi (a box corner; also with sharp_edges off). Flips and \
         collapses do not create angles below 30° / 20° unless the old ones were smaller. \
         Vertices return to the input by a walk from their last face (BVH fallback). `target` \
         is a fraction of the bbox diagonal (relative: true) or absolute. Outputs the mesh and \
-        a Report (vertices_out, feature_edges_in/out, feature_chains_from_curves, tip_vertices, splits, \
+        a Report (vertices_out, feature_edges_in/out, feature_chains_from_curves, tip_vertices, part_corners, \
+        splits, \
         collapses, flips, projections, projection_fallbacks, target_abs).";
 
     fn inputs() -> Vec<Port> {

@@ -14,6 +14,11 @@
 //! farthest along the disk's mean normal (or, in a pit, lies deepest) is kept as a fixed
 //! vertex of the output, like a feature corner.
 //!
+//! A corner of a part (three or more creases meeting where the surface turns by a quarter
+//! turn or more at a single vertex: a box corner closes it by π/2) is cut off the same way
+//! when the creases are not features of the output (sharp-edge detection off, only curves
+//! followed): [`part_corners`] keeps those vertices too.
+//!
 //! Sums run over the vertices reached from the centre through edges without leaving the
 //! ball, in breadth-first order, so values do not depend on the thread count. Only disks in
 //! blocks of cells with enough positive curvature are summed, a few hundred vertices of a
@@ -22,7 +27,7 @@
 use std::collections::HashMap;
 
 use crestflow_flow::Par;
-use crestflow_geom::mesh::{corner_angle, TriMesh};
+use crestflow_geom::mesh::{corner_angle, TriMesh, NO_FACE};
 use crestflow_geom::vec3::{self, V3};
 
 /// Total angle deficit (radians) a disk of radius L/2 must hold for its centre to be a tip.
@@ -230,6 +235,75 @@ pub fn tip_vertices(mesh: &TriMesh, l: f64, excluded: &[bool], par: Par) -> Vec<
     }
     tips.sort_unstable();
     tips
+}
+
+/// Angle deficit (radians, either sign) from which a vertex where three or more creases meet
+/// is a corner of the part: a box corner has π/2, a corner of a regular octahedron 2π/3,
+/// the concave corner of an L-shaped block −π/2.
+pub const CORNER_DEFICIT: f64 = 0.4 * std::f64::consts::PI;
+
+/// Corners of the part at target length `l`, ascending: vertices where at least three edges
+/// with a dihedral angle above `sharp_angle_deg` meet and the angle deficit is at least
+/// [`CORNER_DEFICIT`] in magnitude; the largest first, none within `l` of another or of a
+/// vertex in `taken`, and none within 4/5 `l` of an `excluded` (feature) vertex: a feature
+/// vertex that close could only be joined to the corner by an edge shorter than the collapse
+/// length that no collapse may remove.
+pub fn part_corners(
+    mesh: &TriMesh,
+    l: f64,
+    sharp_angle_deg: f64,
+    excluded: &[bool],
+    taken: &[u32],
+    par: Par,
+) -> Vec<u32> {
+    let n = mesh.n_vertices();
+    if !(l > 0.0 && l.is_finite()) || n == 0 {
+        return Vec::new();
+    }
+    let deficit = angle_deficits(mesh, par);
+    let topo = mesh.topology();
+    let cos_sharp = sharp_angle_deg.to_radians().cos();
+    let normal = |f: u32| vec3::normalize(mesh.face_normal_raw(f as usize));
+    let creases = |v: u32| {
+        topo.neighbors(v)
+            .iter()
+            .filter_map(|&u| topo.find_edge(v, u))
+            .filter(|&e| {
+                let [f0, f1] = topo.edge_faces[e as usize];
+                f1 != NO_FACE && vec3::dot(normal(f0), normal(f1)) < cos_sharp
+            })
+            .count()
+    };
+    let mut found: Vec<(f64, u32)> = (0..n as u32)
+        .filter(|&v| {
+            deficit[v as usize].abs() >= CORNER_DEFICIT
+                && !excluded.get(v as usize).copied().unwrap_or(false)
+                && creases(v) >= 3
+        })
+        .map(|v| (deficit[v as usize].abs(), v))
+        .collect();
+    if !found.is_empty() {
+        let clearance = 0.8 * l;
+        let features: Vec<V3> = (0..n)
+            .filter(|&u| excluded.get(u).copied().unwrap_or(false))
+            .map(|u| mesh.positions[u])
+            .collect();
+        found.retain(|&(_, v)| {
+            let p = mesh.positions[v as usize];
+            features.iter().all(|&q| vec3::dist(p, q) > clearance)
+        });
+    }
+    found.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+    let mut corners: Vec<u32> = Vec::new();
+    for (_, v) in found {
+        let p = mesh.positions[v as usize];
+        let near = |t: &u32| vec3::dist(mesh.positions[*t as usize], p) <= l;
+        if !taken.iter().any(near) && !corners.iter().any(near) {
+            corners.push(v);
+        }
+    }
+    corners.sort_unstable();
+    corners
 }
 
 /// The vertex of `ball` where the surface comes to its point: the one farthest out along

@@ -60,32 +60,7 @@ fn smooth_surfaces_and_cube_corners_have_none() {
     let torus = shapes::torus(1.0, 0.3, 60, 24, 0.0, 1).unwrap();
     assert!(tip_vertices(&torus, 0.1, &[], Par::Seq).is_empty());
     // A cube's corner closes the surface by π/2 only.
-    let cube = TriMesh::new(
-        vec![
-            [0.0, 0.0, 0.0],
-            [1.0, 0.0, 0.0],
-            [1.0, 1.0, 0.0],
-            [0.0, 1.0, 0.0],
-            [0.0, 0.0, 1.0],
-            [1.0, 0.0, 1.0],
-            [1.0, 1.0, 1.0],
-            [0.0, 1.0, 1.0],
-        ],
-        vec![
-            [0, 2, 1],
-            [0, 3, 2],
-            [4, 5, 6],
-            [4, 6, 7],
-            [0, 1, 5],
-            [0, 5, 4],
-            [1, 2, 6],
-            [1, 6, 5],
-            [2, 3, 7],
-            [2, 7, 6],
-            [3, 0, 4],
-            [3, 4, 7],
-        ],
-    );
+    let cube = unit_cube();
     let d = angle_deficits(&cube, Par::Seq);
     assert!(d.iter().all(|x| (x - PI / 2.0).abs() < 1e-12), "{d:?}");
     assert!(tip_vertices(&cube, 0.5, &[], Par::Seq).is_empty());
@@ -119,4 +94,106 @@ fn a_spike_is_a_tip_at_its_apex_and_excluded_vertices_are_not() {
     let mut excluded = vec![false; 5];
     excluded[4] = true;
     assert!(tip_vertices(&m, 0.5, &excluded, Par::Seq).is_empty());
+}
+
+/// The unit cube as eight vertices and twelve triangles.
+fn unit_cube() -> TriMesh {
+    TriMesh::new(
+        vec![
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.0, 0.0, 1.0],
+            [1.0, 0.0, 1.0],
+            [1.0, 1.0, 1.0],
+            [0.0, 1.0, 1.0],
+        ],
+        vec![
+            [0, 2, 1],
+            [0, 3, 2],
+            [4, 5, 6],
+            [4, 6, 7],
+            [0, 1, 5],
+            [0, 5, 4],
+            [1, 2, 6],
+            [1, 6, 5],
+            [2, 3, 7],
+            [2, 7, 6],
+            [3, 0, 4],
+            [3, 4, 7],
+        ],
+    )
+}
+
+#[test]
+fn box_corners_are_part_corners_one_per_target_length() {
+    let cube = unit_cube();
+    let all: Vec<u32> = (0..8).collect();
+    assert_eq!(part_corners(&cube, 0.5, 30.0, &[], &[], Par::Seq), all);
+    // At L = 1.5 the first corner (all equal: lowest index) hides every corner within 1.5,
+    // which leaves the opposite one, √3 away.
+    assert_eq!(
+        part_corners(&cube, 1.5, 30.0, &[], &[], Par::Seq),
+        vec![0, 6]
+    );
+    // A corner within L of a tip taken already is that tip's.
+    assert_eq!(
+        part_corners(&cube, 0.5, 30.0, &[], &[0], Par::Seq),
+        (1..8).collect::<Vec<u32>>()
+    );
+    // A feature vertex closer than 4/5 L hides a corner: at L = 1.5 (clearance 1.2) the
+    // feature vertex 0 hides itself and its three neighbours, not 2, 5, 7 (√2 away) and 6;
+    // of those, 2 comes first and hides the others (all within 1.5 of it).
+    let mut feature = vec![false; 8];
+    feature[0] = true;
+    assert_eq!(
+        part_corners(&cube, 1.5, 30.0, &feature, &[], Par::Seq),
+        vec![2]
+    );
+    // At L = 1 (clearance 0.8) only vertex 0 itself is hidden; the rest are 1 apart or more
+    // and all kept.
+    assert_eq!(
+        part_corners(&cube, 0.99, 30.0, &feature, &[], Par::Seq),
+        (1..8).collect::<Vec<u32>>()
+    );
+    // Edges of 90° are creases only below a threshold of 90°.
+    assert!(part_corners(&cube, 0.5, 95.0, &[], &[], Par::Seq).is_empty());
+}
+
+#[test]
+fn smooth_surfaces_rims_and_tips_are_not_part_corners() {
+    let sphere = shapes::sphere(1.0, 3).unwrap();
+    assert!(part_corners(&sphere, 0.1, 30.0, &[], &[], Par::Seq).is_empty());
+    // Closing by much more than a quarter turn, but smoothly: no creases.
+    assert!(part_corners(&cigar(), 0.1, 30.0, &[], &[], Par::Seq).is_empty());
+    // The rims of a capped cylinder are creases of 90°, but each rim vertex has two of them
+    // and closes the surface by a fraction of 2π/(vertices per rim) only.
+    let cyl = shapes::AnalyticShape::Cylinder {
+        radius: 0.5,
+        height: 1.0,
+    }
+    .mesh(3000, 0.0, 1)
+    .unwrap();
+    assert!(part_corners(&cyl, 0.1, 30.0, &[], &[], Par::Seq).is_empty());
+}
+
+#[test]
+fn fandisk_corners_convex_and_concave() {
+    // cgal_fandisk (bundled): the 22 vertices where three creases meet and the surface turns
+    // by 0.44–0.51 π, found with trimesh's face angles and dihedral angles; 13 close the
+    // surface (box corners such as 4745 at (0.46, 0.256, −0.5)), 9 open it (concave corners
+    // such as 4124). All lie farther than 2 % of the diagonal apart.
+    let path = format!("{}/../../data/cgal_fandisk.off", env!("CARGO_MANIFEST_DIR"));
+    let m = crestflow_geom::io::load_mesh(&path, &Default::default())
+        .unwrap()
+        .mesh;
+    let l = 0.02 * m.bbox_diagonal();
+    let expected = vec![
+        900, 903, 1078, 1081, 1167, 1358, 1450, 1972, 2012, 2145, 2366, 3243, 3444, 4037, 4121,
+        4124, 4192, 4745, 5331, 5367, 5526, 5598,
+    ];
+    for par in [Par::Seq, Par::Rayon] {
+        assert_eq!(part_corners(&m, l, 30.0, &[], &[], par), expected);
+    }
 }

@@ -1153,3 +1153,40 @@ fn chords_across_creases_are_flipped_onto_the_surface() {
         worst / l
     );
 }
+
+#[test]
+fn part_corners_are_kept_when_sharp_edges_are_not_features() {
+    // cgal_fandisk at 2 % with sharp-edge detection off (as in the Fig. 5.1 / 5.3
+    // comparison, where only curves constrain the output): its 22 corners where three
+    // creases meet stay output vertices. Without that (version 18), the output cut some of
+    // them off, which ones depending on the order of the sweeps: farthest input vertex
+    // 0.57 L; with it 0.38 L.
+    let path = format!("{}/../../data/cgal_fandisk.off", env!("CARGO_MANIFEST_DIR"));
+    let input = crestflow_geom::io::load_mesh(&path, &Default::default())
+        .unwrap()
+        .mesh;
+    let params = IsotropicParams {
+        target: 0.02,
+        sharp_edges: false,
+        ..Default::default()
+    };
+    let out = isotropic(&input, None, &params, Par::Rayon).unwrap();
+    assert_manifold(&out.mesh);
+    let l = out.report.num("target_abs").unwrap();
+    let far = farthest_input_vertex(&input, &out.mesh);
+    assert!(
+        far < 0.45 * l,
+        "an input vertex is {:.3} L off the output",
+        far / l
+    );
+    assert_eq!(out.report.num("part_corners"), Some(22.0));
+    for corner in [4745usize, 4124, 5526] {
+        let p = input.positions[corner];
+        assert!(
+            out.mesh.positions.contains(&p),
+            "corner {corner} at {p:?} is not an output vertex"
+        );
+    }
+    let lo = min_angle_deg(&out.mesh);
+    assert!(lo >= 30.0, "min angle {lo:.2}°");
+}
