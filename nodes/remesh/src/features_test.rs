@@ -51,14 +51,8 @@ fn strokes_run_across_curves_that_meet_end_to_end() {
     assert_eq!(strokes(&net), vec![vec![0, 1, 2, 3], vec![4, 5, 6, 4]]);
 }
 
-#[test]
-fn a_curve_loop_is_the_networks_own_polygon() {
-    // A 21 × 21 grid on the unit square and a closed curve: a square whose vertices lie off
-    // the grid vertices, its edge path on grid lines. With a corner angle above its 90°
-    // turns it is one loop, whose reference polyline must be the network's own square, the
-    // first point included: the mesh vertex standing in for the start would add a short
-    // segment and a false bend there.
-    let n = 20u32;
+/// A (n + 1) × (n + 1) grid of vertices on the unit square, two triangles per cell.
+fn unit_grid(n: u32) -> TriMesh {
     let mut pos = Vec::new();
     for j in 0..=n {
         for i in 0..=n {
@@ -73,7 +67,17 @@ fn a_curve_loop_is_the_networks_own_polygon() {
             tri.push([v, v + n + 2, v + n + 1]);
         }
     }
-    let mesh = TriMesh::new(pos, tri);
+    TriMesh::new(pos, tri)
+}
+
+#[test]
+fn a_curve_loop_is_the_networks_own_polygon() {
+    // A 21 × 21 grid on the unit square and a closed curve: a square whose vertices lie off
+    // the grid vertices, its edge path on grid lines. With a corner angle above its 90°
+    // turns it is one loop, whose reference polyline must be the network's own square, the
+    // first point included: the mesh vertex standing in for the start would add a short
+    // segment and a false bend there.
+    let mesh = unit_grid(20);
     let square: Vec<V3> = vec![
         [0.213, 0.207, 0.0],
         [0.813, 0.207, 0.0],
@@ -96,4 +100,59 @@ fn a_curve_loop_is_the_networks_own_polygon() {
         assert!(square.contains(p), "{p:?} is not a vertex of the network");
     }
     assert_eq!(pts[0], pts[4]);
+}
+
+#[test]
+fn curve_ends_beside_a_point_are_trimmed_back_to_the_clearance() {
+    // On a 21 × 21 grid (spacing 0.05), a straight curve along y = 0.5 from x = 0.2 to
+    // x = 0.8 (on grid vertices), and a point at (0.86, 0.5): with a clearance of 0.2, the
+    // curve gives up its edges from x = 0.8 back to x = 0.65 (the first vertex farther
+    // than 0.2), 3 edges; the end at x = 0.2 is far and stays. The boundary is a feature as
+    // well and is never trimmed, though the point lies within 0.2 of it.
+    let mesh = unit_grid(20);
+    let line: Vec<V3> = vec![[0.2, 0.5, 0.0], [0.8, 0.5, 0.0]];
+    let net = FeatureCurveNetwork::from_polylines(&line, &[(&[0, 1], false)]);
+    let proj = Projector::new(&mesh);
+    let mut fe = mark_features(&mesh, None, Some(&net), &proj).unwrap();
+    assert_eq!(fe.from_curves, 12);
+    let boundary = fe.boundary;
+    let chains = build_chains(&mesh, &fe, 100.0);
+    let near_boundary = [0.85, 0.95, 0.0];
+    let chains = trim_curve_ends_near(
+        &mesh,
+        &mut fe,
+        chains,
+        &[[0.86, 0.5, 0.0], near_boundary],
+        0.2,
+        100.0,
+    );
+    assert_eq!(fe.trimmed, 3);
+    let topo = mesh.topology();
+    let kept: Vec<[V3; 2]> = (0..topo.edges.len())
+        .filter(|&e| fe.is_feature[e] && !topo.is_boundary_edge(e as u32))
+        .map(|e| topo.edges[e].map(|v| mesh.positions[v as usize]))
+        .collect();
+    assert_eq!(kept.len(), 9);
+    let xmax = kept
+        .iter()
+        .flat_map(|e| e.iter().map(|p| p[0]))
+        .fold(0.0, f64::max);
+    assert!(
+        (xmax - 0.65).abs() < 1e-12,
+        "the curve now ends at x = {xmax}"
+    );
+    let count_boundary = (0..topo.edges.len())
+        .filter(|&e| fe.is_feature[e] && topo.is_boundary_edge(e as u32))
+        .count();
+    assert_eq!(count_boundary, boundary);
+    // The rebuilt chains (corner angle above the boundary's 90° turns): the boundary loop
+    // and the shorter curve, whose end is a corner.
+    assert_eq!(chains.points.len(), 2);
+    let end = 10 * 21 + 13; // (0.65, 0.5)
+    assert!(chains.is_corner[end]);
+    // Nothing within reach: nothing changes.
+    let before = fe.trimmed;
+    let chains = trim_curve_ends_near(&mesh, &mut fe, chains, &[[0.5, 0.1, 0.0]], 0.2, 100.0);
+    assert_eq!(fe.trimmed, before);
+    assert_eq!(chains.points.len(), 2);
 }

@@ -84,7 +84,11 @@
 //! Tips narrower than L and corners of the part where creases meet ([`crate::tips`]) stay
 //! fixed like feature corners, also when the creases themselves are not features: without
 //! that, which of a box's corners the output cuts off (by up to 0.64 L on cgal_fandisk at
-//! 2 %, curves only) depends on the order of the sweeps.
+//! 2 %, curves only) depends on the order of the sweeps. Two fixed vertices closer than the
+//! collapse length would pin an edge no collapse may remove: a curve ending within 4/5 L of
+//! a tip is trimmed back to that distance ([`crate::features::trim_curve_ends_near`]), a tip
+//! that close to a fixed feature corner is dropped, and so is a part corner that close to
+//! any feature vertex.
 //!
 //! Termination: a fixed number of rounds, at most 64 split and 4 collapse sweeps per round,
 //! and a vertex cap (local targets are never below L / 20). A target below 1/20 of the input's mean edge length is rejected.
@@ -106,9 +110,11 @@ use crestflow_geom::vec3::{self, V3};
 use crestflow_geom::{FeatureCurveNetwork, TriMesh};
 
 use crate::chain::Chain;
-use crate::features::{build_chains, mark_features, prune_short_sharp_chains, FeatureError};
+use crate::features::{
+    build_chains, mark_features, prune_short_sharp_chains, trim_curve_ends_near, FeatureError,
+};
 use crate::project::Projector;
-use crate::tips::{part_corners, tip_vertices};
+use crate::tips::{clear_of_fixed, part_corners, tip_vertices};
 
 /// Parameters of `remesh.isotropic`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -398,13 +404,35 @@ fn isotropic_with(
     );
     let topo = mesh.topology();
     // Tips narrower than the target become fixed vertices (see `tips`), unless they are
-    // feature vertices already.
-    let on_feature: Vec<bool> = (0..mesh.n_vertices())
-        .map(|v| chains.is_corner[v] || chains.vertex_chain[v] != u32::MAX)
-        .collect();
-    let tips = tip_vertices(mesh, l, &on_feature, par);
+    // feature vertices already. Curves ending beside one give up their end to it; a tip
+    // still within 4/5 L of a fixed feature vertex gives way to that vertex.
+    let on_feature_of = |chains: &crate::features::Chains| -> Vec<bool> {
+        (0..mesh.n_vertices())
+            .map(|v| chains.is_corner[v] || chains.vertex_chain[v] != u32::MAX)
+            .collect()
+    };
+    let tips = tip_vertices(mesh, l, &on_feature_of(&chains), par);
+    let tip_points: Vec<V3> = tips.iter().map(|&t| mesh.positions[t as usize]).collect();
+    let chains = trim_curve_ends_near(
+        mesh,
+        &mut fe,
+        chains,
+        &tip_points,
+        0.8 * l,
+        params.corner_angle_deg,
+    );
+    let on_feature = on_feature_of(&chains);
+    let tips = clear_of_fixed(mesh, &tips, &chains.is_corner, l);
     // So do the corners of a part where creases meet, when the creases are not features.
-    let corners = part_corners(mesh, l, params.sharp_angle_deg, &on_feature, &tips, par);
+    let corners = part_corners(
+        mesh,
+        l,
+        params.sharp_angle_deg,
+        &on_feature,
+        &on_feature,
+        &tips,
+        par,
+    );
     let mut is_tip = vec![false; mesh.n_vertices()];
     for &t in tips.iter().chain(&corners) {
         is_tip[t as usize] = true;
@@ -518,6 +546,7 @@ fn isotropic_with(
         .set("feature_edges_in", fe.count())
         .set("feature_edges_sharp", fe.sharp)
         .set("feature_edges_pruned", fe.pruned)
+        .set("feature_edges_trimmed", fe.trimmed)
         .set("feature_edges_boundary", fe.boundary)
         .set("feature_edges_from_curves", fe.from_curves)
         .set("feature_segments_unjoined", fe.segments_unjoined)
@@ -2583,7 +2612,7 @@ pub struct IsotropicNode;
 impl NodeKind for IsotropicNode {
     type Params = IsotropicParams;
     const KIND: &'static str = "remesh.isotropic";
-    const VERSION: u32 = 19;
+    const VERSION: u32 = 20;
     const DOC: &'static str = "Isotropic remeshing at a target edge length (Botsch & Kobbelt \
         2004, thesis §5.1.1): splits > 4/3 L, collapses < 4/5 L, valence-improving flips, \
         tangential relaxation and projection onto the input surface, for `iterations` rounds. \
@@ -2596,7 +2625,9 @@ impl NodeKind for IsotropicNode {
         feature_tolerance · L from the polyline it replaces (bends are kept); with \
         feature_grading > 0 the target shrinks near bends that need shorter edges. Tips \
         narrower than the target (a disk of radius L/2 closing the surface by at least pi, \
-        e.g. the end of a finger) keep a fixed vertex at their apex, and so do corners where \
+        e.g. the end of a finger) keep a fixed vertex at their apex (a curve ending within \
+        0.8 L of one gives its end up to it; a tip that close to a fixed feature corner is \
+        dropped), and so do corners where \
         three or more edges sharper than sharp_angle_deg meet and the surface turns by at \
         least 0.4 pi (a box corner; also with sharp_edges off). Flips and \
         collapses do not create angles below 30° / 20° unless the old ones were smaller. \

@@ -237,6 +237,34 @@ pub fn tip_vertices(mesh: &TriMesh, l: f64, excluded: &[bool], par: Par) -> Vec<
     tips
 }
 
+/// `vertices` without those within 4/5 `l` of a `fixed` vertex (see [`part_corners`]).
+pub fn clear_of_fixed(mesh: &TriMesh, vertices: &[u32], fixed: &[bool], l: f64) -> Vec<u32> {
+    if vertices.is_empty() {
+        return Vec::new();
+    }
+    let fixed = marked_points(mesh, fixed);
+    vertices
+        .iter()
+        .copied()
+        .filter(|&v| clear_of(&fixed, mesh.positions[v as usize], l))
+        .collect()
+}
+
+/// Positions of the `marked` vertices.
+fn marked_points(mesh: &TriMesh, marked: &[bool]) -> Vec<V3> {
+    (0..mesh.n_vertices())
+        .filter(|&u| marked.get(u).copied().unwrap_or(false))
+        .map(|u| mesh.positions[u])
+        .collect()
+}
+
+/// Whether a new fixed vertex at `p` keeps 4/5 `l` from every one of `fixed`: two closer
+/// could only be joined by an edge shorter than the collapse length that no collapse may
+/// remove (a curve ending beside a tip: triangles of 8°).
+fn clear_of(fixed: &[V3], p: V3, l: f64) -> bool {
+    fixed.iter().all(|&q| vec3::dist(p, q) > 0.8 * l)
+}
+
 /// Angle deficit (radians, either sign) from which a vertex where three or more creases meet
 /// is a corner of the part: a box corner has π/2, a corner of a regular octahedron 2π/3,
 /// the concave corner of an L-shaped block −π/2.
@@ -244,15 +272,14 @@ pub const CORNER_DEFICIT: f64 = 0.4 * std::f64::consts::PI;
 
 /// Corners of the part at target length `l`, ascending: vertices where at least three edges
 /// with a dihedral angle above `sharp_angle_deg` meet and the angle deficit is at least
-/// [`CORNER_DEFICIT`] in magnitude; the largest first, none within `l` of another or of a
-/// vertex in `taken`, and none within 4/5 `l` of an `excluded` (feature) vertex: a feature
-/// vertex that close could only be joined to the corner by an edge shorter than the collapse
-/// length that no collapse may remove.
+/// [`CORNER_DEFICIT`] in magnitude (not `excluded`); the largest first, none within `l` of
+/// another or of a vertex in `taken`, and none within 4/5 `l` of a `fixed` vertex.
 pub fn part_corners(
     mesh: &TriMesh,
     l: f64,
     sharp_angle_deg: f64,
     excluded: &[bool],
+    fixed: &[bool],
     taken: &[u32],
     par: Par,
 ) -> Vec<u32> {
@@ -283,15 +310,8 @@ pub fn part_corners(
         .map(|v| (deficit[v as usize].abs(), v))
         .collect();
     if !found.is_empty() {
-        let clearance = 0.8 * l;
-        let features: Vec<V3> = (0..n)
-            .filter(|&u| excluded.get(u).copied().unwrap_or(false))
-            .map(|u| mesh.positions[u])
-            .collect();
-        found.retain(|&(_, v)| {
-            let p = mesh.positions[v as usize];
-            features.iter().all(|&q| vec3::dist(p, q) > clearance)
-        });
+        let fixed = marked_points(mesh, fixed);
+        found.retain(|&(_, v)| clear_of(&fixed, mesh.positions[v as usize], l));
     }
     found.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
     let mut corners: Vec<u32> = Vec::new();

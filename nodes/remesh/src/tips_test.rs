@@ -130,16 +130,16 @@ fn unit_cube() -> TriMesh {
 fn box_corners_are_part_corners_one_per_target_length() {
     let cube = unit_cube();
     let all: Vec<u32> = (0..8).collect();
-    assert_eq!(part_corners(&cube, 0.5, 30.0, &[], &[], Par::Seq), all);
+    assert_eq!(part_corners(&cube, 0.5, 30.0, &[], &[], &[], Par::Seq), all);
     // At L = 1.5 the first corner (all equal: lowest index) hides every corner within 1.5,
     // which leaves the opposite one, √3 away.
     assert_eq!(
-        part_corners(&cube, 1.5, 30.0, &[], &[], Par::Seq),
+        part_corners(&cube, 1.5, 30.0, &[], &[], &[], Par::Seq),
         vec![0, 6]
     );
     // A corner within L of a tip taken already is that tip's.
     assert_eq!(
-        part_corners(&cube, 0.5, 30.0, &[], &[0], Par::Seq),
+        part_corners(&cube, 0.5, 30.0, &[], &[], &[0], Par::Seq),
         (1..8).collect::<Vec<u32>>()
     );
     // A feature vertex closer than 4/5 L hides a corner: at L = 1.5 (clearance 1.2) the
@@ -148,25 +148,25 @@ fn box_corners_are_part_corners_one_per_target_length() {
     let mut feature = vec![false; 8];
     feature[0] = true;
     assert_eq!(
-        part_corners(&cube, 1.5, 30.0, &feature, &[], Par::Seq),
+        part_corners(&cube, 1.5, 30.0, &feature, &feature, &[], Par::Seq),
         vec![2]
     );
     // At L = 1 (clearance 0.8) only vertex 0 itself is hidden; the rest are 1 apart or more
     // and all kept.
     assert_eq!(
-        part_corners(&cube, 0.99, 30.0, &feature, &[], Par::Seq),
+        part_corners(&cube, 0.99, 30.0, &feature, &feature, &[], Par::Seq),
         (1..8).collect::<Vec<u32>>()
     );
     // Edges of 90° are creases only below a threshold of 90°.
-    assert!(part_corners(&cube, 0.5, 95.0, &[], &[], Par::Seq).is_empty());
+    assert!(part_corners(&cube, 0.5, 95.0, &[], &[], &[], Par::Seq).is_empty());
 }
 
 #[test]
 fn smooth_surfaces_rims_and_tips_are_not_part_corners() {
     let sphere = shapes::sphere(1.0, 3).unwrap();
-    assert!(part_corners(&sphere, 0.1, 30.0, &[], &[], Par::Seq).is_empty());
+    assert!(part_corners(&sphere, 0.1, 30.0, &[], &[], &[], Par::Seq).is_empty());
     // Closing by much more than a quarter turn, but smoothly: no creases.
-    assert!(part_corners(&cigar(), 0.1, 30.0, &[], &[], Par::Seq).is_empty());
+    assert!(part_corners(&cigar(), 0.1, 30.0, &[], &[], &[], Par::Seq).is_empty());
     // The rims of a capped cylinder are creases of 90°, but each rim vertex has two of them
     // and closes the surface by a fraction of 2π/(vertices per rim) only.
     let cyl = shapes::AnalyticShape::Cylinder {
@@ -175,7 +175,7 @@ fn smooth_surfaces_rims_and_tips_are_not_part_corners() {
     }
     .mesh(3000, 0.0, 1)
     .unwrap();
-    assert!(part_corners(&cyl, 0.1, 30.0, &[], &[], Par::Seq).is_empty());
+    assert!(part_corners(&cyl, 0.1, 30.0, &[], &[], &[], Par::Seq).is_empty());
 }
 
 #[test]
@@ -194,6 +194,39 @@ fn fandisk_corners_convex_and_concave() {
         4124, 4192, 4745, 5331, 5367, 5526, 5598,
     ];
     for par in [Par::Seq, Par::Rayon] {
-        assert_eq!(part_corners(&m, l, 30.0, &[], &[], par), expected);
+        assert_eq!(part_corners(&m, l, 30.0, &[], &[], &[], par), expected);
     }
+}
+
+#[test]
+fn tips_within_four_fifths_of_l_of_a_fixed_vertex_give_way() {
+    // The cigar's two tips at L = 0.1; a fixed vertex 0.06 from the one at x = 1 removes it
+    // (0.06 < 0.08), one 0.09 away does not.
+    let m = cigar();
+    let tips = tip_vertices(&m, 0.1, &[], Par::Seq);
+    assert_eq!(tips.len(), 2);
+    let right = *tips
+        .iter()
+        .max_by(|&&a, &&b| m.positions[a as usize][0].total_cmp(&m.positions[b as usize][0]))
+        .unwrap();
+    let apex = m.positions[right as usize];
+    let at = |d: f64| {
+        let mut fixed = vec![false; m.n_vertices()];
+        let v = (0..m.n_vertices())
+            .min_by(|&a, &b| {
+                let da = (vec3::dist(m.positions[a], apex) - d).abs();
+                let db = (vec3::dist(m.positions[b], apex) - d).abs();
+                da.total_cmp(&db)
+            })
+            .unwrap();
+        fixed[v] = true;
+        (vec3::dist(m.positions[v], apex), fixed)
+    };
+    let (d, fixed) = at(0.06);
+    assert!(d < 0.08, "{d}");
+    let left: Vec<u32> = tips.iter().copied().filter(|&t| t != right).collect();
+    assert_eq!(clear_of_fixed(&m, &tips, &fixed, 0.1), left);
+    let (d, fixed) = at(0.09);
+    assert!(d > 0.08, "{d}");
+    assert_eq!(clear_of_fixed(&m, &tips, &fixed, 0.1), tips);
 }

@@ -1190,3 +1190,69 @@ fn part_corners_are_kept_when_sharp_edges_are_not_features() {
     let lo = min_angle_deg(&out.mesh);
     assert!(lo >= 30.0, "min angle {lo:.2}°");
 }
+
+#[test]
+fn a_curve_ending_beside_a_tip_gives_its_end_to_the_tip() {
+    // The cigar of `tips_below_the_target_length_are_kept` with a curve along its top from
+    // x = −0.6 to x = 0.97, whose end lies 0.42 L from the apex (1, 0, 0). The curve's end
+    // is a fixed corner, and a tip vertex closer than 4/5 L to a fixed vertex gives way (two
+    // fixed vertices that close leave an edge no collapse may remove). So the curve gives up
+    // its last edges to the tip instead: without that, the tip was dropped and the apex
+    // ended 0.28 L from the output; with it 0.095 L (the mesh vertex nearest the apex).
+    let cigar = shapes::ellipsoid(1.0, 0.12, 0.12, 5, 0.0, 1).unwrap();
+    let l = 0.1;
+    let vertices: Vec<FcnVertex> = (0..=32)
+        .map(|i| {
+            let x = -0.6 + 1.57 * i as f64 / 32.0;
+            FcnVertex {
+                position: [x, 0.0, 0.12 * (1.0 - x * x).sqrt()],
+                location: SurfacePoint::Free,
+                strength: 1.0,
+            }
+        })
+        .collect();
+    let net = FeatureCurveNetwork {
+        vertices,
+        curves: vec![FeatureCurve {
+            vertices: (0..=32).collect(),
+            closed: false,
+            label: CurveLabel::Other,
+        }],
+    };
+    let params = IsotropicParams {
+        sharp_edges: false,
+        ..abs(l)
+    };
+    for par in [Par::Seq, Par::Rayon] {
+        let out = isotropic(&cigar, Some(&net), &params, par).unwrap();
+        assert_manifold(&out.mesh);
+        assert_eq!(out.report.num("tip_vertices"), Some(2.0));
+        let trimmed = out.report.num("feature_edges_trimmed").unwrap();
+        assert!(trimmed > 0.0, "nothing trimmed");
+        let bvh = Bvh::new(&out.mesh);
+        for apex in [[1.0, 0.0, 0.0], [-1.0, 0.0, 0.0]] {
+            let d = bvh.closest(apex).distance;
+            assert!(
+                d < 0.12 * l,
+                "apex {apex:?} is {:.3} L from the output",
+                d / l
+            );
+        }
+        // The rest of the curve is kept: its edges run from x = −0.6 to beyond x = 0.85.
+        let topo = out.mesh.topology();
+        let on_top = |p: V3| p[1].abs() < 1e-3 && p[2] > 0.0;
+        let reach = topo
+            .edges
+            .iter()
+            .map(|&[a, b]| {
+                (
+                    out.mesh.positions[a as usize],
+                    out.mesh.positions[b as usize],
+                )
+            })
+            .filter(|&(pa, pb)| on_top(pa) && on_top(pb))
+            .map(|(pa, pb)| pa[0].max(pb[0]))
+            .fold(f64::NEG_INFINITY, f64::max);
+        assert!(reach > 0.85, "the curve's edges reach x = {reach}");
+    }
+}
