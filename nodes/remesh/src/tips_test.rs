@@ -181,8 +181,8 @@ fn smooth_surfaces_rims_and_tips_are_not_part_corners() {
 #[test]
 fn fandisk_corners_convex_and_concave() {
     // cgal_fandisk (bundled): the 22 vertices where three creases meet and the surface turns
-    // by 0.44–0.51 π, found with trimesh's face angles and dihedral angles; 13 close the
-    // surface (box corners such as 4745 at (0.46, 0.256, −0.5)), 9 open it (concave corners
+    // by 0.44–0.51 π, found with trimesh's face angles and dihedral angles; 15 close the
+    // surface (box corners such as 4745 at (0.46, 0.256, −0.5)), 7 open it (concave corners
     // such as 4124). All lie farther than 2 % of the diagonal apart.
     let path = format!("{}/../../data/cgal_fandisk.off", env!("CARGO_MANIFEST_DIR"));
     let m = crestflow_geom::io::load_mesh(&path, &Default::default())
