@@ -196,6 +196,10 @@ fn fandisk_corners_convex_and_concave() {
     for par in [Par::Seq, Par::Rayon] {
         assert_eq!(part_corners(&m, l, 30.0, &[], &[], &[], par), expected);
     }
+    let d = angle_deficits(&m, Par::Seq);
+    let convex = expected.iter().filter(|&&v| d[v as usize] > 0.0).count();
+    assert_eq!(convex, 15);
+    assert!(d[4745] > 0.0 && d[4124] < 0.0);
 }
 
 #[test]
