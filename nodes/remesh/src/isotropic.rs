@@ -431,7 +431,6 @@ fn isotropic_with(
         &on_feature,
         &on_feature,
         &tips,
-        par,
     );
     let mut is_tip = vec![false; mesh.n_vertices()];
     for &t in tips.iter().chain(&corners) {

@@ -281,33 +281,47 @@ pub fn part_corners(
     excluded: &[bool],
     fixed: &[bool],
     taken: &[u32],
-    par: Par,
 ) -> Vec<u32> {
     let n = mesh.n_vertices();
     if !(l > 0.0 && l.is_finite()) || n == 0 {
         return Vec::new();
     }
-    let deficit = angle_deficits(mesh, par);
+    // Creases first (one pass over the edges), then the angle deficits of the few vertices
+    // with three or more, summed over their faces in face order as `angle_deficits` does.
     let topo = mesh.topology();
     let cos_sharp = sharp_angle_deg.to_radians().cos();
-    let normal = |f: u32| vec3::normalize(mesh.face_normal_raw(f as usize));
-    let creases = |v: u32| {
-        topo.neighbors(v)
+    let normals = mesh.face_normals();
+    let mut creases = vec![0u8; n];
+    for (e, &[f0, f1]) in topo.edge_faces.iter().enumerate() {
+        if f1 != NO_FACE && vec3::dot(normals[f0 as usize], normals[f1 as usize]) < cos_sharp {
+            for v in topo.edges[e] {
+                creases[v as usize] = creases[v as usize].saturating_add(1);
+            }
+        }
+    }
+    let boundary = &topo.is_boundary_vertex;
+    let deficit = |v: u32| {
+        let sum: f64 = topo
+            .vertex_faces(v)
             .iter()
-            .filter_map(|&u| topo.find_edge(v, u))
-            .filter(|&e| {
-                let [f0, f1] = topo.edge_faces[e as usize];
-                f1 != NO_FACE && vec3::dot(normal(f0), normal(f1)) < cos_sharp
+            .map(|&f| {
+                let t = mesh.triangles[f as usize];
+                let k = t.iter().position(|&c| c == v).unwrap_or(0);
+                let p = t.map(|c| mesh.positions[c as usize]);
+                let (a, b, c) = (p[k], p[(k + 1) % 3], p[(k + 2) % 3]);
+                corner_angle(vec3::sub(b, a), vec3::sub(c, a))
             })
-            .count()
+            .sum();
+        2.0 * std::f64::consts::PI - sum
     };
     let mut found: Vec<(f64, u32)> = (0..n as u32)
         .filter(|&v| {
-            deficit[v as usize].abs() >= CORNER_DEFICIT
+            creases[v as usize] >= 3
+                && !boundary[v as usize]
                 && !excluded.get(v as usize).copied().unwrap_or(false)
-                && creases(v) >= 3
         })
-        .map(|v| (deficit[v as usize].abs(), v))
+        .map(|v| (deficit(v).abs(), v))
+        .filter(|&(d, _)| d >= CORNER_DEFICIT)
         .collect();
     if !found.is_empty() {
         let fixed = marked_points(mesh, fixed);

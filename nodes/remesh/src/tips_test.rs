@@ -130,16 +130,13 @@ fn unit_cube() -> TriMesh {
 fn box_corners_are_part_corners_one_per_target_length() {
     let cube = unit_cube();
     let all: Vec<u32> = (0..8).collect();
-    assert_eq!(part_corners(&cube, 0.5, 30.0, &[], &[], &[], Par::Seq), all);
+    assert_eq!(part_corners(&cube, 0.5, 30.0, &[], &[], &[]), all);
     // At L = 1.5 the first corner (all equal: lowest index) hides every corner within 1.5,
     // which leaves the opposite one, √3 away.
-    assert_eq!(
-        part_corners(&cube, 1.5, 30.0, &[], &[], &[], Par::Seq),
-        vec![0, 6]
-    );
+    assert_eq!(part_corners(&cube, 1.5, 30.0, &[], &[], &[]), vec![0, 6]);
     // A corner within L of a tip taken already is that tip's.
     assert_eq!(
-        part_corners(&cube, 0.5, 30.0, &[], &[], &[0], Par::Seq),
+        part_corners(&cube, 0.5, 30.0, &[], &[], &[0]),
         (1..8).collect::<Vec<u32>>()
     );
     // A feature vertex closer than 4/5 L hides a corner: at L = 1.5 (clearance 1.2) the
@@ -148,25 +145,25 @@ fn box_corners_are_part_corners_one_per_target_length() {
     let mut feature = vec![false; 8];
     feature[0] = true;
     assert_eq!(
-        part_corners(&cube, 1.5, 30.0, &feature, &feature, &[], Par::Seq),
+        part_corners(&cube, 1.5, 30.0, &feature, &feature, &[]),
         vec![2]
     );
     // At L = 1 (clearance 0.8) only vertex 0 itself is hidden; the rest are 1 apart or more
     // and all kept.
     assert_eq!(
-        part_corners(&cube, 0.99, 30.0, &feature, &feature, &[], Par::Seq),
+        part_corners(&cube, 0.99, 30.0, &feature, &feature, &[]),
         (1..8).collect::<Vec<u32>>()
     );
     // Edges of 90° are creases only below a threshold of 90°.
-    assert!(part_corners(&cube, 0.5, 95.0, &[], &[], &[], Par::Seq).is_empty());
+    assert!(part_corners(&cube, 0.5, 95.0, &[], &[], &[]).is_empty());
 }
 
 #[test]
 fn smooth_surfaces_rims_and_tips_are_not_part_corners() {
     let sphere = shapes::sphere(1.0, 3).unwrap();
-    assert!(part_corners(&sphere, 0.1, 30.0, &[], &[], &[], Par::Seq).is_empty());
+    assert!(part_corners(&sphere, 0.1, 30.0, &[], &[], &[]).is_empty());
     // Closing by much more than a quarter turn, but smoothly: no creases.
-    assert!(part_corners(&cigar(), 0.1, 30.0, &[], &[], &[], Par::Seq).is_empty());
+    assert!(part_corners(&cigar(), 0.1, 30.0, &[], &[], &[]).is_empty());
     // The rims of a capped cylinder are creases of 90°, but each rim vertex has two of them
     // and closes the surface by a fraction of 2π/(vertices per rim) only.
     let cyl = shapes::AnalyticShape::Cylinder {
@@ -175,7 +172,7 @@ fn smooth_surfaces_rims_and_tips_are_not_part_corners() {
     }
     .mesh(3000, 0.0, 1)
     .unwrap();
-    assert!(part_corners(&cyl, 0.1, 30.0, &[], &[], &[], Par::Seq).is_empty());
+    assert!(part_corners(&cyl, 0.1, 30.0, &[], &[], &[]).is_empty());
 }
 
 #[test]
@@ -193,9 +190,7 @@ fn fandisk_corners_convex_and_concave() {
         900, 903, 1078, 1081, 1167, 1358, 1450, 1972, 2012, 2145, 2366, 3243, 3444, 4037, 4121,
         4124, 4192, 4745, 5331, 5367, 5526, 5598,
     ];
-    for par in [Par::Seq, Par::Rayon] {
-        assert_eq!(part_corners(&m, l, 30.0, &[], &[], &[], par), expected);
-    }
+    assert_eq!(part_corners(&m, l, 30.0, &[], &[], &[]), expected);
     let d = angle_deficits(&m, Par::Seq);
     let convex = expected.iter().filter(|&&v| d[v as usize] > 0.0).count();
     assert_eq!(convex, 15);
