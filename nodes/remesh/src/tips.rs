@@ -242,27 +242,73 @@ pub fn clear_of_fixed(mesh: &TriMesh, vertices: &[u32], fixed: &[bool], l: f64) 
     if vertices.is_empty() {
         return Vec::new();
     }
-    let fixed = marked_points(mesh, fixed);
+    let fixed = Clearance::new(mesh, fixed, l);
     vertices
         .iter()
         .copied()
-        .filter(|&v| clear_of(&fixed, mesh.positions[v as usize], l))
+        .filter(|&v| fixed.clear(mesh.positions[v as usize]))
         .collect()
 }
 
-/// Positions of the `marked` vertices.
-fn marked_points(mesh: &TriMesh, marked: &[bool]) -> Vec<V3> {
-    (0..mesh.n_vertices())
-        .filter(|&u| marked.get(u).copied().unwrap_or(false))
-        .map(|u| mesh.positions[u])
-        .collect()
+/// The marked vertices of a mesh in cells of side 4/5 `l`, to tell whether a new fixed vertex
+/// keeps 4/5 `l` from all of them: two closer could only be joined by an edge shorter than
+/// the collapse length that no collapse may remove (a curve ending beside a tip: triangles
+/// of 8°). A point's neighbours within that distance lie in the 3×3×3 cells around its own.
+struct Clearance {
+    cells: CellMap<Vec<V3>>,
+    lo: V3,
+    side: f64,
 }
 
-/// Whether a new fixed vertex at `p` keeps 4/5 `l` from every one of `fixed`: two closer
-/// could only be joined by an edge shorter than the collapse length that no collapse may
-/// remove (a curve ending beside a tip: triangles of 8°).
-fn clear_of(fixed: &[V3], p: V3, l: f64) -> bool {
-    fixed.iter().all(|&q| vec3::dist(p, q) > 0.8 * l)
+impl Clearance {
+    fn new(mesh: &TriMesh, marked: &[bool], l: f64) -> Clearance {
+        let side = 0.8 * l;
+        let mut lo = [f64::INFINITY; 3];
+        for p in &mesh.positions {
+            for k in 0..3 {
+                lo[k] = lo[k].min(p[k]);
+            }
+        }
+        let mut c = Clearance {
+            cells: CellMap::default(),
+            lo,
+            side,
+        };
+        for (u, &p) in mesh.positions.iter().enumerate() {
+            if marked.get(u).copied().unwrap_or(false) {
+                c.cells.entry(c.key(c.cell(p))).or_default().push(p);
+            }
+        }
+        c
+    }
+
+    /// Cell coordinates, offset by one so that the neighbours stay non-negative, packed 21
+    /// bits each (clamped).
+    fn cell(&self, p: V3) -> [u64; 3] {
+        [0, 1, 2]
+            .map(|k| (((p[k] - self.lo[k]) / self.side).floor().max(0.0) as u64 + 1).min(0x1f_fffe))
+    }
+
+    fn key(&self, c: [u64; 3]) -> u64 {
+        c[0] | (c[1] << 21) | (c[2] << 42)
+    }
+
+    fn clear(&self, p: V3) -> bool {
+        let c = self.cell(p);
+        for dz in 0..3 {
+            for dy in 0..3 {
+                for dx in 0..3 {
+                    let k = self.key([c[0] + dx - 1, c[1] + dy - 1, c[2] + dz - 1]);
+                    if let Some(pts) = self.cells.get(&k) {
+                        if pts.iter().any(|&q| vec3::dist(p, q) <= self.side) {
+                            return false;
+                        }
+                    }
+                }
+            }
+        }
+        true
+    }
 }
 
 /// Angle deficit (radians, either sign) from which a vertex where three or more creases meet
@@ -324,8 +370,8 @@ pub fn part_corners(
         .filter(|&(d, _)| d >= CORNER_DEFICIT)
         .collect();
     if !found.is_empty() {
-        let fixed = marked_points(mesh, fixed);
-        found.retain(|&(_, v)| clear_of(&fixed, mesh.positions[v as usize], l));
+        let fixed = Clearance::new(mesh, fixed, l);
+        found.retain(|&(_, v)| fixed.clear(mesh.positions[v as usize]));
     }
     found.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
     let mut corners: Vec<u32> = Vec::new();
