@@ -33,6 +33,47 @@ use crestflow_geom::vec3::{self, V3};
 /// Total angle deficit (radians) a disk of radius L/2 must hold for its centre to be a tip.
 pub const TIP_DEFICIT: f64 = std::f64::consts::PI;
 
+/// The angle of triangle `p` at its corner `k`.
+fn angle_at(p: &[V3; 3], k: usize) -> f64 {
+    let (a, b, c) = (p[k], p[(k + 1) % 3], p[(k + 2) % 3]);
+    corner_angle(vec3::sub(b, a), vec3::sub(c, a))
+}
+
+/// Cells of side `side` over a mesh's bounding box: coordinates offset by one so that a
+/// cell's neighbours stay non-negative, packed 21 bits each into a key (clamped: a target
+/// that small was rejected before).
+struct Grid {
+    lo: V3,
+    side: f64,
+}
+
+impl Grid {
+    fn new(mesh: &TriMesh, side: f64) -> Grid {
+        let mut lo = [f64::INFINITY; 3];
+        for p in &mesh.positions {
+            for k in 0..3 {
+                lo[k] = lo[k].min(p[k]);
+            }
+        }
+        Grid { lo, side }
+    }
+
+    fn cell(&self, p: V3) -> [u64; 3] {
+        [0, 1, 2]
+            .map(|k| (((p[k] - self.lo[k]) / self.side).floor().max(0.0) as u64 + 1).min(0x1f_fffe))
+    }
+
+    /// Key of the cell at offset `d - 1` (each of `d` in 0..3) from `c`.
+    fn key(c: [u64; 3], d: [u64; 3]) -> u64 {
+        (c[0] + d[0] - 1) | ((c[1] + d[1] - 1) << 21) | ((c[2] + d[2] - 1) << 42)
+    }
+
+    /// Keys of the 3×3×3 cells around `c`, itself included.
+    fn block(c: [u64; 3]) -> impl Iterator<Item = u64> {
+        (0..27u64).map(move |i| Grid::key(c, [i % 3, (i / 3) % 3, i / 9]))
+    }
+}
+
 /// Angle deficit `2π − Σθ` of each interior vertex (0 on the boundary and for unreferenced
 /// vertices). The corner angles are computed in parallel and added in face order.
 pub fn angle_deficits(mesh: &TriMesh, par: Par) -> Vec<f64> {
@@ -44,10 +85,7 @@ pub fn angle_deficits(mesh: &TriMesh, par: Par) -> Vec<f64> {
             .iter()
             .map(|t| {
                 let p = t.map(|v| mesh.positions[v as usize]);
-                [0, 1, 2].map(|k| {
-                    let (a, b, c) = (p[k], p[(k + 1) % 3], p[(k + 2) % 3]);
-                    corner_angle(vec3::sub(b, a), vec3::sub(c, a))
-                })
+                [0, 1, 2].map(|k| angle_at(&p, k))
             })
             .collect()
     });
@@ -142,18 +180,9 @@ pub fn tip_vertices(mesh: &TriMesh, l: f64, excluded: &[bool], par: Par) -> Vec<
     // around the vertex's cell. Blocks whose cells' positive sums stay below the threshold
     // hold no tip (within a cell, the deficits of a noisy but smooth surface cancel), so the
     // ball sums run only in the other blocks' centre cells: a few vertices of a large mesh.
-    let mut lo = [f64::INFINITY; 3];
-    for p in &mesh.positions {
-        for k in 0..3 {
-            lo[k] = lo[k].min(p[k]);
-        }
-    }
-    // Cell coordinates, offset by one so that the block's neighbours stay non-negative,
-    // packed 21 bits each (clamped: a target that small was rejected before).
-    let cell_of = |p: V3| -> [u64; 3] {
-        [0, 1, 2].map(|k| (((p[k] - lo[k]) / (0.5 * l)).floor().max(0.0) as u64 + 1).min(0x1f_fffe))
-    };
-    let key = |c: [u64; 3]| c[0] | (c[1] << 21) | (c[2] << 42);
+    let grid = Grid::new(mesh, 0.5 * l);
+    let cell_of = |p: V3| grid.cell(p);
+    let key = |c: [u64; 3]| Grid::key(c, [1, 1, 1]);
     let mut cells: CellMap<f64> = CellMap::default();
     for (v, &d) in deficit.iter().enumerate() {
         if d != 0.0 {
@@ -164,13 +193,8 @@ pub fn tip_vertices(mesh: &TriMesh, l: f64, excluded: &[bool], par: Par) -> Vec<
     let mut block_may_hold_a_tip = |c: [u64; 3]| {
         *hot.entry(key(c)).or_insert_with(|| {
             let mut sum = 0.0;
-            for dz in 0..3 {
-                for dy in 0..3 {
-                    for dx in 0..3 {
-                        let k = key([c[0] + dx - 1, c[1] + dy - 1, c[2] + dz - 1]);
-                        sum += cells.get(&k).copied().unwrap_or(0.0).max(0.0);
-                    }
-                }
+            for k in Grid::block(c) {
+                sum += cells.get(&k).copied().unwrap_or(0.0).max(0.0);
             }
             sum >= TIP_DEFICIT
         })
@@ -256,58 +280,30 @@ pub fn clear_of_fixed(mesh: &TriMesh, vertices: &[u32], fixed: &[bool], l: f64) 
 /// of 8°). A point's neighbours within that distance lie in the 3×3×3 cells around its own.
 struct Clearance {
     cells: CellMap<Vec<V3>>,
-    lo: V3,
-    side: f64,
+    grid: Grid,
 }
 
 impl Clearance {
     fn new(mesh: &TriMesh, marked: &[bool], l: f64) -> Clearance {
-        let side = 0.8 * l;
-        let mut lo = [f64::INFINITY; 3];
-        for p in &mesh.positions {
-            for k in 0..3 {
-                lo[k] = lo[k].min(p[k]);
-            }
-        }
-        let mut c = Clearance {
-            cells: CellMap::default(),
-            lo,
-            side,
-        };
+        let grid = Grid::new(mesh, 0.8 * l);
+        let mut cells: CellMap<Vec<V3>> = CellMap::default();
         for (u, &p) in mesh.positions.iter().enumerate() {
             if marked.get(u).copied().unwrap_or(false) {
-                c.cells.entry(c.key(c.cell(p))).or_default().push(p);
+                cells
+                    .entry(Grid::key(grid.cell(p), [1, 1, 1]))
+                    .or_default()
+                    .push(p);
             }
         }
-        c
-    }
-
-    /// Cell coordinates, offset by one so that the neighbours stay non-negative, packed 21
-    /// bits each (clamped).
-    fn cell(&self, p: V3) -> [u64; 3] {
-        [0, 1, 2]
-            .map(|k| (((p[k] - self.lo[k]) / self.side).floor().max(0.0) as u64 + 1).min(0x1f_fffe))
-    }
-
-    fn key(&self, c: [u64; 3]) -> u64 {
-        c[0] | (c[1] << 21) | (c[2] << 42)
+        Clearance { cells, grid }
     }
 
     fn clear(&self, p: V3) -> bool {
-        let c = self.cell(p);
-        for dz in 0..3 {
-            for dy in 0..3 {
-                for dx in 0..3 {
-                    let k = self.key([c[0] + dx - 1, c[1] + dy - 1, c[2] + dz - 1]);
-                    if let Some(pts) = self.cells.get(&k) {
-                        if pts.iter().any(|&q| vec3::dist(p, q) <= self.side) {
-                            return false;
-                        }
-                    }
-                }
-            }
-        }
-        true
+        Grid::block(self.grid.cell(p)).all(|k| {
+            self.cells
+                .get(&k)
+                .is_none_or(|pts| pts.iter().all(|&q| vec3::dist(p, q) > self.grid.side))
+        })
     }
 }
 
@@ -353,9 +349,7 @@ pub fn part_corners(
             .map(|&f| {
                 let t = mesh.triangles[f as usize];
                 let k = t.iter().position(|&c| c == v).unwrap_or(0);
-                let p = t.map(|c| mesh.positions[c as usize]);
-                let (a, b, c) = (p[k], p[(k + 1) % 3], p[(k + 2) % 3]);
-                corner_angle(vec3::sub(b, a), vec3::sub(c, a))
+                angle_at(&t.map(|c| mesh.positions[c as usize]), k)
             })
             .sum();
         2.0 * std::f64::consts::PI - sum
