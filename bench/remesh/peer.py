@@ -163,6 +163,40 @@ def min_angle_away_from_features(V, F):
     return float(min(ang(a, b, c).min(), ang(b, c, a).min(), ang(c, a, b).min()))
 
 
+def narrowest_sharp_sector(V, F):
+    """Smallest angle (degrees) between two sharp (> 30 deg) or boundary edges that follow
+    each other around a vertex: the sum of the triangle corners between them. Any mesh that
+    keeps all these edges has a triangle corner inside that sector, so its smallest angle is
+    at most this (None when no vertex has two such edges)."""
+    E = np.sort(sharp_edges(V, F), 1)
+    deg = np.bincount(E.ravel(), minlength=len(V))
+    sharp = set(map(tuple, E.tolist()))
+    fans = {}
+    for f in np.nonzero((deg[F] >= 2).any(1))[0]:
+        t = F[f].tolist()
+        for i in range(3):
+            v, p, q = t[i], t[(i + 1) % 3], t[(i + 2) % 3]
+            if deg[v] >= 2:
+                u, w = V[p] - V[v], V[q] - V[v]
+                a = math.degrees(math.atan2(np.linalg.norm(np.cross(u, w)), float(u @ w)))
+                fans.setdefault(v, {})[p] = (q, a)
+    best = None
+    for v, fan in fans.items():
+        for s in fan:
+            if (min(v, s), max(v, s)) not in sharp:
+                continue
+            total, p = 0.0, s
+            for _ in range(len(fan)):
+                if p not in fan:  # reached the boundary
+                    break
+                p, a = fan[p]
+                total += a
+                if (min(v, p), max(v, p)) in sharp:
+                    best = total if best is None else min(best, total)
+                    break
+    return best
+
+
 def grade(VA, FA, VB, FB):
     r = quality(VB, FB)
     r["min_angle_nonfeature_deg"] = min_angle_away_from_features(VB, FB)
@@ -264,6 +298,7 @@ def main():
     args = ap.parse_args()
     V, F = load(args.mesh)
     d = diag(V)
+    sector = narrowest_sharp_sector(V, F)
     targets = [float(t) for t in args.targets.split(",")]
     methods = args.methods.split(",")
     stem = args.mesh.rsplit("/", 1)[-1].rsplit(".", 1)[0]
@@ -300,7 +335,8 @@ def main():
             except Exception as e:
                 rows.append({"method": "cgal", "error": "%s: %s" % (type(e).__name__, e)})
         for r in rows:
-            print(json.dumps({"mesh": stem, "target_pct": pct, "n_vertices_in": int(len(V)), **r}))
+            print(json.dumps({"mesh": stem, "target_pct": pct, "n_vertices_in": int(len(V)),
+                              "input_sharp_sector_min_deg": sector, **r}))
             sys.stdout.flush()
 
 

@@ -63,4 +63,11 @@ for key in sorted({(r["mesh"], r["target_pct"]) for r in rows}):
     for r in rows:
         if (r["mesh"], r["target_pct"]) == key and "error" in r:
             print("| %s | %g %% | %s | failed: %s |" % (r["mesh"], r["target_pct"], r["method"], r["error"]))
+# What keeping every sharp edge allows: a triangle corner lies in each sector between two
+# sharp edges that follow each other around a vertex.
+print()
+for mesh in sorted({r["mesh"] for r in rows}):
+    s = next((r.get("input_sharp_sector_min_deg") for r in rows if r["mesh"] == mesh), None)
+    print("%s: narrowest sector between sharp edges of the input: %s (the largest min angle a mesh"
+          " keeping all of them can have)" % (mesh, "none" if s is None else "%.2f°" % s))
 PY
