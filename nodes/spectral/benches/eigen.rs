@@ -3,7 +3,7 @@
 //! `bench/spectral/run.sh` compares with scipy's `eigsh` (bench/spectral/peer_scipy.py).
 //!
 //! Usage: `cargo bench -p crestflow-nodes-spectral --bench eigen -- MESH [--ks 20,60,120]
-//! [--repeats 3] [--block B] [--subspace M] [--tol T] [--torus N OUT.off]` — with `--torus`, a jittered torus of about N
+//! [--repeats 3] [--block B] [--subspace M] [--tol T] [--inner-shift F] [--torus N OUT.off]` — with `--torus`, a jittered torus of about N
 //! vertices is generated (crestflow_geom::shapes), written to OUT.off and used as MESH.
 
 use std::io::Write;
@@ -65,6 +65,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             }
             "--tol" => {
                 base.tol = args[i + 1].parse()?;
+                i += 2;
+            }
+            "--inner-shift" => {
+                base.inner_shift = args[i + 1].parse()?;
                 i += 2;
             }
             "--torus" => {

@@ -31,7 +31,7 @@ use std::sync::Arc;
 
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::sparse::linalg::cholesky::{
-    factorize_symbolic_cholesky, CholeskySymbolicParams, LltRef, SymbolicCholesky,
+    factorize_symbolic_cholesky, CholeskySymbolicParams, LdltRef, LltRef, SymbolicCholesky,
     SymbolicCholeskyRaw, SymmetricOrdering,
 };
 use faer::sparse::linalg::SupernodalThreshold;
@@ -792,11 +792,24 @@ pub struct SpdSolver {
     factor: Vec<f64>,
     row_ptr: Vec<usize>,
     col_idx: Vec<usize>,
+    /// Built by [`SpdSolver::new_indefinite`]: `A = P^T L D L^T P` with `D` of either sign,
+    /// stored as the Cholesky-like factor `L |D|^{1/2}`; the triangular solves are those of
+    /// a Cholesky factor with the signs of `D` applied in between.
+    indefinite: bool,
+    /// Positions (in the permuted order) of the negative entries of `D`.
+    negative: Vec<usize>,
 }
 
 impl SpdSolver {
     /// Analyses and factorises `a`, which must be square, symmetric and positive definite.
     pub fn new(a: &CsrMatrix) -> Result<SpdSolver, SparseError> {
+        let mut s = SpdSolver::new_symbolic(a)?;
+        s.numeric(a)?;
+        Ok(s)
+    }
+
+    /// The symbolic analysis of `a` (ordering, elimination tree, solve schedule), no values.
+    fn new_symbolic(a: &CsrMatrix) -> Result<SpdSolver, SparseError> {
         a.check()?;
         if a.nrows != a.ncols {
             return Err(SparseError::NotSquare {
@@ -817,16 +830,34 @@ impl SpdSolver {
         )
         .map_err(|e| SparseError::Factorization(format!("{e:?}")))?;
         let schedule = Arc::new(SolveSchedule::new(&symbolic));
-        let mut s = SpdSolver {
+        Ok(SpdSolver {
             n: a.nrows,
             symbolic: Arc::new(symbolic),
             schedule,
             factor: Vec::new(),
             row_ptr: a.row_ptr.clone(),
             col_idx: a.col_idx.clone(),
-        };
+            indefinite: false,
+            negative: Vec::new(),
+        })
+    }
+
+    /// Analyses and factorises `a`, which must be square and symmetric and may be
+    /// indefinite, as `P^T L D L^T P` without pivoting (a shifted operator `L − σM` with
+    /// σ inside the spectrum). By Sylvester's law of inertia, [`SpdSolver::negative_pivots`]
+    /// is then the number of negative eigenvalues of `a`. Fails on a zero or non-finite
+    /// pivot; a pivot tiny against its column shows as a large solve error, which callers
+    /// check (no pivoting: meant for matrices whose shift keeps away from an eigenvalue).
+    pub fn new_indefinite(a: &CsrMatrix) -> Result<SpdSolver, SparseError> {
+        let mut s = SpdSolver::new_symbolic(a)?;
+        s.indefinite = true;
         s.numeric(a)?;
         Ok(s)
+    }
+
+    /// Number of negative entries of `D` (0 for a positive definite factorisation).
+    pub fn negative_pivots(&self) -> usize {
+        self.negative.len()
     }
 
     /// Factorises new values. When `a` has the pattern of the matrix this solver was built
@@ -837,12 +868,19 @@ impl SpdSolver {
             a.check()?;
             self.numeric(a)
         } else {
-            *self = SpdSolver::new(a)?;
+            *self = if self.indefinite {
+                SpdSolver::new_indefinite(a)?
+            } else {
+                SpdSolver::new(a)?
+            };
             Ok(())
         }
     }
 
     fn numeric(&mut self, a: &CsrMatrix) -> Result<(), SparseError> {
+        if self.indefinite {
+            return self.numeric_ldlt(a);
+        }
         let view = a.as_faer_transpose()?;
         let fpar = faer::Par::Seq;
         let mut values = vec![0.0; self.symbolic.len_val()];
@@ -870,6 +908,82 @@ impl SpdSolver {
                 }
             })?;
         self.factor = values;
+        Ok(())
+    }
+
+    /// `A = P^T L D L^T P` (faer, no pivoting), then each column of `L` scaled by
+    /// `|d|^{1/2}` and its diagonal set to that, so that the Cholesky solves below apply;
+    /// the signs of `D` are kept apart.
+    fn numeric_ldlt(&mut self, a: &CsrMatrix) -> Result<(), SparseError> {
+        let view = a.as_faer_transpose()?;
+        let fpar = faer::Par::Seq;
+        let mut values = vec![0.0; self.symbolic.len_val()];
+        let mut mem = MemBuffer::try_new(
+            self.symbolic
+                .factorize_numeric_ldlt_scratch::<f64>(fpar, Default::default()),
+        )
+        .map_err(|e| SparseError::Factorization(format!("{e:?}")))?;
+        self.symbolic
+            .factorize_numeric_ldlt::<f64>(
+                &mut values,
+                view,
+                Side::Lower,
+                Default::default(),
+                fpar,
+                MemStack::new(&mut mem),
+                Default::default(),
+            )
+            .map_err(|e| match e {
+                faer::linalg::cholesky::ldlt::factor::LdltError::ZeroPivot { index } => {
+                    SparseError::Factorization(format!("zero pivot at {index} of {}", self.n))
+                }
+            })?;
+        let pivot_error = |d: f64, at: usize| {
+            SparseError::Factorization(format!("pivot {d} at {at} of {}", self.n))
+        };
+        let sym = match self.symbolic.raw() {
+            SymbolicCholeskyRaw::Supernodal(sym) => sym,
+            SymbolicCholeskyRaw::Simplicial(sym) => {
+                // faer's own layout (tiny matrices only): D first in each column, kept as
+                // it is for faer's LDLᵀ solve.
+                let mut negative = Vec::new();
+                for (j, &p) in sym.col_ptr()[..self.n].iter().enumerate() {
+                    let d = values[p];
+                    if !(d.is_finite() && d != 0.0) {
+                        return Err(pivot_error(d, j));
+                    }
+                    if d < 0.0 {
+                        negative.push(j);
+                    }
+                }
+                self.factor = values;
+                self.negative = negative;
+                return Ok(());
+            }
+        };
+        let (begin, end) = (sym.supernode_begin(), sym.supernode_end());
+        let (rptr, vptr) = (sym.col_ptr_for_row_idx(), sym.col_ptr_for_val());
+        let mut negative = Vec::new();
+        for s in 0..begin.len() {
+            let nc = end[s] - begin[s];
+            let ld = nc + (rptr[s + 1] - rptr[s]);
+            let vals = &mut values[vptr[s]..vptr[s + 1]];
+            for jj in 0..nc {
+                let col = &mut vals[jj * ld..(jj + 1) * ld];
+                let d = col[jj];
+                if !(d.is_finite() && d != 0.0) {
+                    return Err(pivot_error(d, begin[s] + jj));
+                }
+                if d < 0.0 {
+                    negative.push(begin[s] + jj);
+                }
+                let r = d.abs().sqrt();
+                col[jj] = r;
+                col[jj + 1..].iter_mut().for_each(|l| *l *= r);
+            }
+        }
+        self.factor = values;
+        self.negative = negative;
         Ok(())
     }
 
@@ -906,11 +1020,17 @@ impl SpdSolver {
             // faer chose the simplicial layout (it does so only for degenerate sizes): its own
             // solve, one column at a time.
             let fpar = faer::Par::Seq;
-            let llt = LltRef::<usize, f64>::new(&self.symbolic, &self.factor);
             let mut mem = MemBuffer::new(self.symbolic.solve_in_place_scratch::<f64>(1, fpar));
             for col in b.chunks_mut(n).take(m) {
                 let rhs = MatMut::from_column_major_slice_mut(col, n, 1);
-                llt.solve_in_place_with_conj(Conj::No, rhs, fpar, MemStack::new(&mut mem));
+                let stack = MemStack::new(&mut mem);
+                if self.indefinite {
+                    LdltRef::<usize, f64>::new(&self.symbolic, &self.factor)
+                        .solve_in_place_with_conj(Conj::No, rhs, fpar, stack);
+                } else {
+                    LltRef::<usize, f64>::new(&self.symbolic, &self.factor)
+                        .solve_in_place_with_conj(Conj::No, rhs, fpar, stack);
+                }
             }
             return;
         };
@@ -1010,6 +1130,12 @@ impl SpdSolver {
                         xi[w] -= tv[w];
                     }
                 });
+            }
+        }
+        // An indefinite factor: y ← sign(D) y between the two triangular solves.
+        for &i in &self.negative {
+            for v in x[i].iter_mut() {
+                *v = -*v;
             }
         }
         // Backward, Lᵀ x = y: the separators, then the subtrees (reading the separator

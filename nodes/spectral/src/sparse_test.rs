@@ -211,6 +211,55 @@ fn bad_meshes_are_rejected_with_the_element() {
 }
 
 /// Two unit spheres side by side (a forest: the elimination tree has two roots).
+#[test]
+fn indefinite_solver_counts_the_eigenvalues_below_the_shift() {
+    // The unit sphere's eigenvalues lie near l(l + 1) with multiplicity 2l + 1: below σ = 4
+    // lie 1 + 3 of them, below σ = 7 another 5, per sphere. Level 5 is large enough for the
+    // split (parallel) solves.
+    for (mesh, spheres) in [(sphere(1.0, 5).unwrap(), 1), (two_spheres(5), 2)] {
+        let (l, m) = laplacian_and_mass(&mesh, &LaplacianOptions::default(), Par::Seq).unwrap();
+        let n = m.len();
+        for (sigma, below) in [(4.0, 4), (7.0, 9)] {
+            let a = l
+                .add_diagonal(&m.iter().map(|x| -sigma * x).collect::<Vec<_>>())
+                .unwrap();
+            let solver = SpdSolver::new_indefinite(&a).unwrap();
+            assert_eq!(solver.negative_pivots(), below * spheres, "σ = {sigma}");
+            let b: Vec<f64> = (0..n * 5)
+                .map(|i| ((i * 7919) % 101) as f64 / 101.0 - 0.5)
+                .collect();
+            let mut x = b.clone();
+            let mut y = b.clone();
+            solver.solve_many(&mut x, 5, Par::Rayon).unwrap();
+            solver.solve_many(&mut y, 5, Par::Seq).unwrap();
+            assert_eq!(x, y);
+            let ax = a.mul_dense(&x, 5, Par::Seq).unwrap();
+            let worst = ax
+                .iter()
+                .zip(&b)
+                .map(|(p, q)| (p - q).abs())
+                .fold(0.0, f64::max);
+            assert!(worst < 1e-10, "σ = {sigma}: residual {worst}");
+        }
+    }
+    // A zero pivot is an error, not a division by zero; a positive definite matrix has no
+    // negative pivot.
+    let singular = CsrMatrix::from_diagonal(&[1.0, 0.0, 2.0]).unwrap();
+    assert!(matches!(
+        SpdSolver::new_indefinite(&singular),
+        Err(SparseError::Factorization(_))
+    ));
+    let mut diag =
+        SpdSolver::new_indefinite(&CsrMatrix::from_diagonal(&[1.0, -2.0, 4.0]).unwrap()).unwrap();
+    assert_eq!(diag.negative_pivots(), 1);
+    let mut x = vec![1.0, 1.0, 1.0];
+    diag.solve_in_place(&mut x).unwrap();
+    assert_eq!(x, [1.0, -0.5, 0.25]);
+    diag.refactor(&CsrMatrix::from_diagonal(&[1.0, 2.0, 4.0]).unwrap())
+        .unwrap();
+    assert_eq!(diag.negative_pivots(), 0);
+}
+
 fn two_spheres(level: u32) -> TriMesh {
     let a = sphere(1.0, level).unwrap();
     let n = a.positions.len() as u32;

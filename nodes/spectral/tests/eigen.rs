@@ -94,6 +94,71 @@ fn icosphere_multiplicities_converge_to_l_l_plus_1() {
     );
 }
 
+fn basis_with(op: &LaplacianOperator, k: usize, inner_shift: f64) -> EigenBasis {
+    let params = EigenbasisParams {
+        k,
+        inner_shift,
+        ..Default::default()
+    };
+    eigenbasis(op, &params, Par::Rayon).expect("eigenbasis")
+}
+
+fn assert_matches_dense(b: &EigenBasis, exact: &[f64], what: &str) {
+    for (i, (got, want)) in b.values.iter().zip(exact).enumerate() {
+        assert!(
+            (got - want).abs() <= 1e-8,
+            "{what}: λ_{i} {got} vs dense {want}"
+        );
+    }
+    assert!(
+        b.max_residual <= 1e-8,
+        "{what}: residual {}",
+        b.max_residual
+    );
+    assert!(
+        b.max_orthonormality_error <= 1e-10,
+        "{what}: orthonormality {}",
+        b.max_orthonormality_error
+    );
+}
+
+#[test]
+fn a_shift_inside_the_spectrum_finds_the_same_pairs() {
+    // Unit sphere: eigenvalues near l(l + 1), multiplicity 2l + 1; Weyl's estimate of λ_k
+    // is k. k = 40: σ = 0.4 · 40 = 16 lies between the bands 12 and 20 (16 values below).
+    let op = op_of(&sphere(1.0, 3).unwrap());
+    let exact = dense_values(&op);
+    let area: f64 = op.mass.iter().sum();
+    let inside = basis_with(&op, 40, 0.4);
+    let weyl = 4.0 * std::f64::consts::PI * 40.0 / area;
+    assert!(
+        (inside.shift - 0.4 * weyl).abs() < 1e-9,
+        "σ = {}",
+        inside.shift
+    );
+    assert!((inside.shift - 16.0).abs() < 0.2, "σ = {}", inside.shift);
+    assert_matches_dense(&inside, &exact, "σ = 16");
+    let below = basis_with(&op, 40, 0.0);
+    assert!(
+        below.shift < 0.0 && below.shift > -1e-3,
+        "σ = {}",
+        below.shift
+    );
+    assert_matches_dense(&below, &exact, "σ below the spectrum");
+    // k = 20, σ = 0.55 · 20 = 11: the 20 eigenvalues nearest σ are the bands 6, 12 and 20
+    // (the band 20 has 9 copies), not the 20 smallest; the 9 below σ (0, 2, 6) tell.
+    let widened = basis_with(&op, 20, 0.55);
+    assert!(widened.shift > 10.9, "σ = {}", widened.shift);
+    assert_matches_dense(&widened, &exact, "σ = 11");
+    // σ = 0.9 · 36 = 32.4 lies above all 36 wanted eigenvalues (up to 30): more than 0.7 k
+    // below σ, so the solver shifts below the spectrum instead.
+    let fallback = basis_with(&op, 36, 0.9);
+    assert!(fallback.shift < 0.0, "σ = {}", fallback.shift);
+    assert_matches_dense(&fallback, &exact, "fallback");
+    // Below k = 16 the shift stays below the spectrum.
+    assert!(basis_with(&op, 15, 0.4).shift < 0.0);
+}
+
 #[test]
 fn seq_and_rayon_agree_bit_for_bit() {
     // Level 4: 2562 vertices, more than one row chunk of the block products.
