@@ -545,12 +545,12 @@ fn eigenbasis_on(
         // Shifted into the spectrum (k ≥ 16 only: below that the gain is small), with the
         // shift below the spectrum when that attempt gives up.
         let inner = params.inner_shift * 4.0 * std::f64::consts::PI * k as f64 / area;
-        let attempt = if k >= 16 && inner > 0.0 && inner.is_finite() {
+        let mut run = |sigma: f64, inside: bool| {
             lanczos(
                 &l,
                 &mass,
-                inner,
-                true,
+                sigma,
+                inside,
                 k,
                 block,
                 m_max,
@@ -558,29 +558,19 @@ fn eigenbasis_on(
                 par,
                 cancelled,
                 &mut solves,
-            )?
+            )
+        };
+        let attempt = if k >= 16 && inner > 0.0 && inner.is_finite() {
+            run(inner, true)?
         } else {
             None
         };
         match attempt {
             Some(vectors) => (vectors, inner),
-            None => {
-                let vectors = lanczos(
-                    &l,
-                    &mass,
-                    sigma,
-                    false,
-                    k,
-                    block,
-                    m_max,
-                    params,
-                    par,
-                    cancelled,
-                    &mut solves,
-                )?
-                .ok_or(EigenbasisError::Breakdown { step: 0 })?;
-                (vectors, sigma)
-            }
+            None => (
+                run(sigma, false)?.ok_or(EigenbasisError::Breakdown { step: 0 })?,
+                sigma,
+            ),
         }
     };
 

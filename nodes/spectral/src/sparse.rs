@@ -877,67 +877,66 @@ impl SpdSolver {
         }
     }
 
+    /// Factorises new values: `L Lᵀ`, or for an indefinite solver `L D Lᵀ` (faer, no
+    /// pivoting) with each column of `L` then scaled by `|d|^{1/2}` and its diagonal set to
+    /// that, so that the Cholesky solves below apply; the signs of `D` are kept apart.
     fn numeric(&mut self, a: &CsrMatrix) -> Result<(), SparseError> {
-        if self.indefinite {
-            return self.numeric_ldlt(a);
-        }
         let view = a.as_faer_transpose()?;
         let fpar = faer::Par::Seq;
         let mut values = vec![0.0; self.symbolic.len_val()];
-        let mut mem = MemBuffer::try_new(
+        let scratch = if self.indefinite {
             self.symbolic
-                .factorize_numeric_llt_scratch::<f64>(fpar, Default::default()),
-        )
-        .map_err(|e| SparseError::Factorization(format!("{e:?}")))?;
-        self.symbolic
-            .factorize_numeric_llt::<f64>(
-                &mut values,
-                view,
-                Side::Lower,
-                Default::default(),
-                fpar,
-                MemStack::new(&mut mem),
-                Default::default(),
-            )
-            .map_err(|e| match e {
-                faer::linalg::cholesky::llt::factor::LltError::NonPositivePivot { index } => {
-                    SparseError::NotPositiveDefinite {
-                        pivot: index,
-                        n: self.n,
+                .factorize_numeric_ldlt_scratch::<f64>(fpar, Default::default())
+        } else {
+            self.symbolic
+                .factorize_numeric_llt_scratch::<f64>(fpar, Default::default())
+        };
+        let mut mem = MemBuffer::try_new(scratch)
+            .map_err(|e| SparseError::Factorization(format!("{e:?}")))?;
+        let stack = MemStack::new(&mut mem);
+        let n = self.n;
+        if self.indefinite {
+            self.symbolic
+                .factorize_numeric_ldlt::<f64>(
+                    &mut values,
+                    view,
+                    Side::Lower,
+                    Default::default(),
+                    fpar,
+                    stack,
+                    Default::default(),
+                )
+                .map_err(|e| match e {
+                    faer::linalg::cholesky::ldlt::factor::LdltError::ZeroPivot { index } => {
+                        SparseError::Factorization(format!("zero pivot at {index} of {n}"))
                     }
-                }
-            })?;
+                })?;
+            self.negative = self.scale_ldlt(&mut values)?;
+        } else {
+            self.symbolic
+                .factorize_numeric_llt::<f64>(
+                    &mut values,
+                    view,
+                    Side::Lower,
+                    Default::default(),
+                    fpar,
+                    stack,
+                    Default::default(),
+                )
+                .map_err(|e| match e {
+                    faer::linalg::cholesky::llt::factor::LltError::NonPositivePivot { index } => {
+                        SparseError::NotPositiveDefinite { pivot: index, n }
+                    }
+                })?;
+        }
         self.factor = values;
         Ok(())
     }
 
-    /// `A = P^T L D L^T P` (faer, no pivoting), then each column of `L` scaled by
-    /// `|d|^{1/2}` and its diagonal set to that, so that the Cholesky solves below apply;
-    /// the signs of `D` are kept apart.
-    fn numeric_ldlt(&mut self, a: &CsrMatrix) -> Result<(), SparseError> {
-        let view = a.as_faer_transpose()?;
-        let fpar = faer::Par::Seq;
-        let mut values = vec![0.0; self.symbolic.len_val()];
-        let mut mem = MemBuffer::try_new(
-            self.symbolic
-                .factorize_numeric_ldlt_scratch::<f64>(fpar, Default::default()),
-        )
-        .map_err(|e| SparseError::Factorization(format!("{e:?}")))?;
-        self.symbolic
-            .factorize_numeric_ldlt::<f64>(
-                &mut values,
-                view,
-                Side::Lower,
-                Default::default(),
-                fpar,
-                MemStack::new(&mut mem),
-                Default::default(),
-            )
-            .map_err(|e| match e {
-                faer::linalg::cholesky::ldlt::factor::LdltError::ZeroPivot { index } => {
-                    SparseError::Factorization(format!("zero pivot at {index} of {}", self.n))
-                }
-            })?;
+    /// Turns faer's supernodal `L D Lᵀ` values into `L |D|^{1/2}` in place and returns the
+    /// positions of the negative entries of `D` (the simplicial layout, for tiny matrices,
+    /// stays as faer's solve reads it).
+    fn scale_ldlt(&self, values: &mut [f64]) -> Result<Vec<usize>, SparseError> {
         let pivot_error = |d: f64, at: usize| {
             SparseError::Factorization(format!("pivot {d} at {at} of {}", self.n))
         };
@@ -956,9 +955,7 @@ impl SpdSolver {
                         negative.push(j);
                     }
                 }
-                self.factor = values;
-                self.negative = negative;
-                return Ok(());
+                return Ok(negative);
             }
         };
         let (begin, end) = (sym.supernode_begin(), sym.supernode_end());
@@ -982,9 +979,7 @@ impl SpdSolver {
                 col[jj + 1..].iter_mut().for_each(|l| *l *= r);
             }
         }
-        self.factor = values;
-        self.negative = negative;
-        Ok(())
+        Ok(negative)
     }
 
     /// Order of the matrix.
