@@ -1028,13 +1028,14 @@ pub struct EigenbasisNode;
 impl NodeKind for EigenbasisNode {
     type Params = EigenbasisParams;
     const KIND: &'static str = "spectral.eigenbasis";
-    const VERSION: u32 = 3;
+    const VERSION: u32 = 4;
     const DOC: &'static str = "The k smallest eigenpairs of the Laplace-Beltrami operator, \
         L phi = lambda M phi, M-orthonormal (thesis §2.3, §2.6.3; the basis of functional \
         maps, Ovsjanikov et al. 2012). Block shift-invert Lanczos with full \
-        reorthogonalisation and thick restarts on a sparse Cholesky factorisation of L - sigma \
-        M; finds repeated eigenvalues. A separate node so that downstream changes never \
-        recompute it. Output: an EigenBasis.";
+        reorthogonalisation and thick restarts on a sparse factorisation of L - sigma M, sigma \
+        inside the wanted spectrum for k >= 16 (inner_shift of Weyl's estimate of lambda_k; \
+        its inertia checks that the k smallest were found); finds repeated eigenvalues. A \
+        separate node so that downstream changes never recompute it. Output: an EigenBasis.";
 
     fn inputs() -> Vec<Port> {
         vec![Port::of::<LaplacianOperator>(
