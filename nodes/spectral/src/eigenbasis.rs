@@ -6,20 +6,21 @@
 //! Stewart 2001 for Krylov–Schur restarts). The operator is `S = (L − σM)⁻¹ M`, self-adjoint
 //! in the M-inner product, whose eigenvalues `θ = 1 / (λ − σ)` largest in magnitude belong to
 //! the λ nearest σ. `L − σM` is factorised once ([`SpdSolver`]: sparse Cholesky, or `L D Lᵀ`
-//! for a shift inside the spectrum); each Lanczos step solves for a whole block of `b` right-hand sides. A block (rather than a single vector) is
-//! what finds every copy of a repeated eigenvalue (the icosphere's multiplicities 1, 3, 5, …,
-//! a disconnected mesh's zeros): `b` copies at once, further ones as rounding brings them in
-//! (the icosphere tests find all 11 copies of l = 5 with blocks of 4). Each new block is
-//! orthogonalised against the two newest blocks, then once against the whole basis, and again
-//! only when that pass removed much of it (Daniel, Gragg, Kaufman, Stewart 1976).
+//! for a shift inside the spectrum); each Lanczos step solves for a whole block of `b`
+//! right-hand sides. A block (rather than a single vector) is what finds every copy of a
+//! repeated eigenvalue (the icosphere's multiplicities 1, 3, 5, …, a disconnected mesh's
+//! zeros): `b` copies at once, further ones as rounding brings them in (the icosphere tests
+//! find all 11 copies of l = 5 with blocks of 4). Each new block is orthogonalised against the
+//! two newest blocks, then once against the whole basis, and again only when that pass removed
+//! much of it (Daniel, Gragg, Kaufman, Stewart 1976).
 //!
 //! The shift: for k ≥ 16 it lies inside the wanted part of the spectrum, at `inner_shift`
 //! (default 0.4) times Weyl's estimate `4πk / area` of λ_k (the counting function of a
 //! surface grows as area · λ / 4π). The relative gap `(λ_{k+1} − λ_k) / (λ_k − σ)` that sets
 //! the convergence at the upper end of the wanted pairs is then about 1/(1 − 0.4) ≈ 1.7 times
 //! that with σ near 0, and the wanted pairs below σ sit apart at the negative end of θ, where
-//! nothing unwanted competes (cgal_bunny00 at
-//! k = 20 / 60 / 120: 96 / 192 / 384 solves instead of 112 / 232 / 464). `L − σM` is then
+//! nothing unwanted competes (cgal_bunny00 at k = 20 / 60 / 120: 96 / 192 / 384 solves instead
+//! of 112 / 232 / 464). `L − σM` is then
 //! indefinite and is factorised as `L D Lᵀ` without pivoting ([`SpdSolver::new_indefinite`]);
 //! its negative pivots count the eigenvalues below σ (Sylvester's law of inertia), ν. Ritz
 //! pairs are ranked by their distance to σ; the k nearest contain the k smallest exactly
@@ -561,7 +562,11 @@ fn eigenbasis_on(
             )
         };
         let attempt = if k >= 16 && inner > 0.0 && inner.is_finite() {
-            run(inner, true)?
+            match run(inner, true) {
+                // A block that loses rank there is retried below the spectrum too.
+                Err(EigenbasisError::Breakdown { .. }) => None,
+                other => other?,
+            }
         } else {
             None
         };
