@@ -10,7 +10,9 @@
 //!   al. 2003 by default, the same as libigl's `massmatrix` default; barycentric as an option).
 //! - [`SpdSolver`]: a sparse Cholesky factorisation (faer, AMD ordering, supernodal) of a
 //!   symmetric positive definite matrix, whose symbolic analysis is reused by
-//!   [`SpdSolver::refactor`] when only the values change (e.g. `M + t L` for a new `t`).
+//!   [`SpdSolver::refactor`] when only the values change (e.g. `M + t L` for a new `t`); or,
+//!   built by [`SpdSolver::new_indefinite`], an `L D Lᵀ` factorisation of a symmetric
+//!   indefinite one without pivoting, with its inertia.
 //!
 //! Degenerate triangles: cotangents are computed intrinsically from edge lengths. With
 //! `mollify > 0` (default 1e-6) every edge length gets the same small δ ≥ 0, the least one for
@@ -846,8 +848,9 @@ impl SpdSolver {
     /// indefinite, as `P^T L D L^T P` without pivoting (a shifted operator `L − σM` with
     /// σ inside the spectrum). By Sylvester's law of inertia, [`SpdSolver::negative_pivots`]
     /// is then the number of negative eigenvalues of `a`. Fails on a zero or non-finite
-    /// pivot; a pivot tiny against its column shows as a large solve error, which callers
-    /// check (no pivoting: meant for matrices whose shift keeps away from an eigenvalue).
+    /// pivot. Without pivoting a pivot tiny against its column would spoil the solves: meant
+    /// for shifted operators whose shift keeps away from an eigenvalue (the eigenbasis
+    /// reports the backward errors of what it finds).
     pub fn new_indefinite(a: &CsrMatrix) -> Result<SpdSolver, SparseError> {
         let mut s = SpdSolver::new_symbolic(a)?;
         s.indefinite = true;
