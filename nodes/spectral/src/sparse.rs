@@ -780,7 +780,8 @@ pub fn lumped_mass(mesh: &TriMesh) -> Result<Vec<f64>, OperatorError> {
 }
 
 /// A sparse Cholesky factorisation `A = P^T L L^T P` of a symmetric positive definite
-/// matrix (faer; AMD fill-reducing ordering; only the lower triangle of `A` is read).
+/// matrix (faer; AMD fill-reducing ordering; only the lower triangle of `A` is read), or an
+/// `L D Lᵀ` one of a symmetric indefinite matrix ([`SpdSolver::new_indefinite`]).
 ///
 /// The factorisation itself runs on the calling thread (its result must not depend on the
 /// thread count); [`SpdSolver::solve_many`] solves independent right-hand sides in parallel.
