@@ -25,9 +25,11 @@
 //! its negative pivots count the eigenvalues below σ (Sylvester's law of inertia), ν. Ritz
 //! pairs are ranked by their distance to σ; the k nearest contain the k smallest exactly
 //! when ν of them lie below σ, which is checked once they have converged (else more pairs
-//! are taken). Where the estimate is off (ν > 0.7 k), the factorisation fails, or the
-//! wanted pairs outgrow the basis, the solver starts over with the shift below the spectrum,
-//! `σ = −shift · n / area` (`n / area` is the scale of the largest eigenvalues, so this is a
+//! are taken). Where more than 0.7 k eigenvalues lie below σ (Weyl's law undercounts the low
+//! spectrum of thin shapes: cgal_camel at k = 20), σ is halved, twice at most (a numeric
+//! refactorisation each). Where that does not help, the factorisation fails, or the wanted
+//! pairs outgrow the basis, the solver starts over (same symbolic analysis) with the shift
+//! below the spectrum, `σ = −shift · n / area` (`n / area` is the scale of the largest eigenvalues, so this is a
 //! tiny fraction of the spectrum at any mesh size or unit; not tinier than needed, default
 //! 1e-5: the zero eigenvalue's `θ = 1/|σ|` sets the rounding level of the projected
 //! problem, and a huge `θ` would blur the small ones). That shift is also the one for k < 16.
@@ -543,15 +545,12 @@ fn eigenbasis_on(
     let (vectors, shift) = if n <= 2 * (m_max + block) {
         (dense_eig(&l, &mass, k).1, 0.0)
     } else {
-        // Shifted into the spectrum (k ≥ 16 only: below that the gain is small), with the
-        // shift below the spectrum when that attempt gives up.
-        let inner = params.inner_shift * 4.0 * std::f64::consts::PI * k as f64 / area;
-        let mut run = |sigma: f64, inside: bool| {
+        let shifted = |s: f64| l.add_diagonal(&mass.iter().map(|m| -s * m).collect::<Vec<_>>());
+        let mut run = |solver: &SpdSolver, sigma: f64| {
             lanczos(
-                &l,
+                solver,
                 &mass,
                 sigma,
-                inside,
                 k,
                 block,
                 m_max,
@@ -561,21 +560,56 @@ fn eigenbasis_on(
                 &mut solves,
             )
         };
-        let attempt = if k >= 16 && inner > 0.0 && inner.is_finite() {
-            match run(inner, true) {
-                // A block that loses rank there is retried below the spectrum too.
-                Err(EigenbasisError::Breakdown { .. }) => None,
-                other => other?,
+        // Shifted into the spectrum (k ≥ 16 only: below that the gain is small), with the
+        // shift below the spectrum when that attempt gives up.
+        let mut found = None;
+        let mut solver = None;
+        let mut inner = params.inner_shift * 4.0 * std::f64::consts::PI * k as f64 / area;
+        if k >= 16 && inner > 0.0 && inner.is_finite() {
+            if let Ok(mut s) = SpdSolver::new_indefinite(&shifted(inner)?) {
+                // Weyl's law undercounts the low eigenvalues of thin shapes (a camel's legs
+                // and neck): with more than 0.7 k below σ, σ is halved (a numeric
+                // refactorisation: the pattern is the same), twice at most.
+                let mut factored = true;
+                for _ in 0..2 {
+                    if 10 * s.negative_pivots() <= 7 * k {
+                        break;
+                    }
+                    inner *= 0.5;
+                    factored = s.refactor(&shifted(inner)?).is_ok();
+                    if !factored {
+                        break;
+                    }
+                }
+                if factored && 10 * s.negative_pivots() <= 7 * k {
+                    found = match run(&s, inner) {
+                        Ok(v) => v.map(|v| (v, inner)),
+                        // A block that loses rank there is retried below the spectrum too.
+                        Err(EigenbasisError::Breakdown { .. }) => None,
+                        Err(e) => return Err(e),
+                    };
+                }
+                // Below the spectrum the same symbolic analysis serves (L D Lᵀ of a positive
+                // definite matrix: every pivot positive).
+                solver = Some(s);
             }
-        } else {
-            None
-        };
-        match attempt {
-            Some(vectors) => (vectors, inner),
-            None => (
-                run(sigma, false)?.ok_or(EigenbasisError::Breakdown { step: 0 })?,
-                sigma,
-            ),
+        }
+        match found {
+            Some(f) => f,
+            None => {
+                let a = shifted(sigma)?;
+                let s = match solver {
+                    Some(mut s) => {
+                        s.refactor(&a)?;
+                        s
+                    }
+                    None => SpdSolver::new(&a)?,
+                };
+                (
+                    run(&s, sigma)?.ok_or(EigenbasisError::Breakdown { step: 0 })?,
+                    sigma,
+                )
+            }
         }
     };
 
@@ -754,22 +788,20 @@ fn dense_eig(l: &CsrMatrix, mass: &[f64], k: usize) -> (Vec<f64>, Vec<f64>) {
     (vals, vecs)
 }
 
-/// Block shift-invert Lanczos with full reorthogonalisation and thick restarts; `solves`
-/// counts the right-hand sides solved.
+/// Block shift-invert Lanczos with full reorthogonalisation and thick restarts on the
+/// factorisation `solver` of `L − σM`; `solves` counts the right-hand sides solved.
 ///
-/// With `inside` the shift lies in the spectrum: `L − σM` is factorised as `L D Lᵀ`, whose
-/// negative pivots count the eigenvalues below σ (ν, Sylvester's law of inertia). The Ritz
-/// pairs are ranked by distance to σ (|θ| descending, as below the spectrum); once the `nw`
-/// nearest (first k) have converged, they hold the k smallest eigenvalues exactly when ν of
-/// them lie below σ, else `nw` grows. Returns `None` (the caller shifts below the spectrum
-/// instead) when the factorisation fails, when σ lies above 0.7 k eigenvalues, or when `nw`
-/// would outgrow the basis.
+/// When σ lies in the spectrum, the factorisation's negative pivots count the eigenvalues
+/// below it (ν, Sylvester's law of inertia). The Ritz pairs are ranked by distance to σ
+/// (|θ| descending, as below the spectrum); once the `nw` nearest (first k) have converged,
+/// they hold the k smallest eigenvalues exactly when ν of them lie below σ, else `nw` grows.
+/// Returns `None` (the caller shifts below the spectrum instead) when `nw` would outgrow the
+/// basis.
 #[allow(clippy::too_many_arguments)]
 fn lanczos(
-    l: &CsrMatrix,
+    solver: &SpdSolver,
     mass: &[f64],
     sigma: f64,
-    inside: bool,
     k: usize,
     b: usize,
     m_max: usize,
@@ -779,19 +811,8 @@ fn lanczos(
     solves: &mut usize,
 ) -> Result<Option<Vec<f64>>, EigenbasisError> {
     let n = mass.len();
-    let shifted = l.add_diagonal(&mass.iter().map(|m| -sigma * m).collect::<Vec<_>>())?;
-    let solver = if inside {
-        match SpdSolver::new_indefinite(&shifted) {
-            Ok(s) => s,
-            Err(_) => return Ok(None),
-        }
-    } else {
-        SpdSolver::new(&shifted)?
-    };
+    // Eigenvalues below σ (none when σ is below the spectrum).
     let below = solver.negative_pivots();
-    if inside && 10 * below > 7 * k {
-        return Ok(None);
-    }
     // Ritz pairs that must converge: the k nearest σ, more if they miss some below it.
     let mut nw = k;
     let cap = m_max + b;

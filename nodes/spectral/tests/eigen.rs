@@ -3,7 +3,7 @@
 //! determinism across thread counts, degenerate and disconnected meshes.
 
 use crestflow_flow::{Par, Validate};
-use crestflow_geom::shapes::sphere;
+use crestflow_geom::shapes::{sphere, torus};
 use crestflow_geom::TriMesh;
 use crestflow_nodes_spectral::{
     eigenbasis, laplacian, EigenBasis, EigenbasisError, EigenbasisParams, LaplacianOperator,
@@ -151,12 +151,42 @@ fn a_shift_inside_the_spectrum_finds_the_same_pairs() {
     assert!(widened.shift > 10.9, "σ = {}", widened.shift);
     assert_matches_dense(&widened, &exact, "σ = 11");
     // σ = 0.9 · 36 = 32.4 lies above all 36 wanted eigenvalues (up to 30): more than 0.7 k
-    // below σ, so the solver shifts below the spectrum instead.
-    let fallback = basis_with(&op, 36, 0.9);
-    assert!(fallback.shift < 0.0, "σ = {}", fallback.shift);
-    assert_matches_dense(&fallback, &exact, "fallback");
+    // below σ, so σ is halved, to 16.2 (16 below).
+    let halved = basis_with(&op, 36, 0.9);
+    let weyl36 = 4.0 * std::f64::consts::PI * 36.0 / area;
+    assert!(
+        (halved.shift - 0.45 * weyl36).abs() < 1e-9,
+        "σ = {}",
+        halved.shift
+    );
+    assert_matches_dense(&halved, &exact, "σ halved");
     // Below k = 16 the shift stays below the spectrum.
     assert!(basis_with(&op, 15, 0.4).shift < 0.0);
+}
+
+#[test]
+fn a_thin_ring_keeps_the_shift_below_the_spectrum() {
+    // A torus of radii 1 and 0.01: its low eigenvalues are the ring's, near j² (j = 0, 1, 1,
+    // 2, 2, …), far more of them below Weyl's estimate 4πk / area than on a fat surface.
+    // At k = 20, σ = 0.4 · 667 = 267 and its halves 133 and 67 still have 33, 23 and 17 of
+    // them below (more than 0.7 k): the solver shifts below the spectrum instead.
+    let ring = torus(1.0, 0.01, 300, 6, 0.0, 0).unwrap();
+    let op = op_of(&ring);
+    let b = basis_with(&op, 20, 0.4);
+    assert!(b.shift < 0.0, "σ = {}", b.shift);
+    let below = basis_with(&op, 20, 0.0);
+    for (x, y) in b.values.iter().zip(&below.values) {
+        assert!((x - y).abs() <= 1e-9 * y.abs().max(1.0), "{x} vs {y}");
+    }
+    for (i, &got) in b.values.iter().enumerate() {
+        let j = (i + 1) / 2;
+        let want = (j * j) as f64;
+        assert!(
+            (got - want).abs() <= 0.01 * want + 1e-9,
+            "λ_{i} = {got}, ring {want}"
+        );
+    }
+    assert!(b.max_residual <= 1e-8 && b.max_orthonormality_error <= 1e-10);
 }
 
 #[test]
