@@ -179,7 +179,7 @@ fn a_thin_ring_keeps_the_shift_below_the_spectrum() {
         assert!((x - y).abs() <= 1e-9 * y.abs().max(1.0), "{x} vs {y}");
     }
     for (i, &got) in b.values.iter().enumerate() {
-        let j = (i + 1) / 2;
+        let j = i.div_ceil(2);
         let want = (j * j) as f64;
         assert!(
             (got - want).abs() <= 0.01 * want + 1e-9,
