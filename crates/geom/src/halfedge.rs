@@ -36,7 +36,8 @@ pub enum HalfEdgeError {
     NonManifoldEdge { a: u32, b: u32, faces: [usize; 2] },
     #[error(
         "edge ({a}, {b}): faces {faces:?} run along it in the same direction (inconsistent \
-         orientation or a non-manifold edge)"
+         orientation or a non-manifold edge; `io.load_mesh` with `repair: true` orients the \
+         faces coherently)"
     )]
     InconsistentOrientation { a: u32, b: u32, faces: [usize; 2] },
     #[error("non-manifold vertex {vertex}: its faces form {fans} separate fans")]

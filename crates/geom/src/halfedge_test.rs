@@ -80,10 +80,13 @@ fn rejects_bad_input() {
         }
     );
     let flipped = TriMesh::new(p.clone(), vec![[0, 1, 2], [0, 1, 3]]);
+    let err = HalfEdgeMesh::from_trimesh(&flipped).unwrap_err();
     assert!(matches!(
-        HalfEdgeMesh::from_trimesh(&flipped).unwrap_err(),
+        err,
         HalfEdgeError::InconsistentOrientation { a: 0, b: 1, .. }
     ));
+    // The message names the way out.
+    assert!(err.to_string().contains("repair: true"), "{err}");
     let bad = TriMesh::new(p.clone(), vec![[0, 1, 9]]);
     assert_eq!(
         HalfEdgeMesh::from_trimesh(&bad).unwrap_err(),

@@ -3,7 +3,8 @@
 //! §2.5) starts from the mesh this node produces, so its checks are the ones DESIGN §7 lists:
 //! empty meshes, non-finite coordinates, out-of-range indices and non-manifold connectivity are
 //! typed errors; degenerate and duplicate faces and unreferenced vertices are dropped and
-//! counted; several components are reported. The work is done by [`crestflow_geom::io`].
+//! counted; several components and inconsistent orientation are reported (`repair` splits
+//! non-manifold vertices and orients each component coherently). The work is done by [`crestflow_geom::io`].
 
 use std::path::{Path, PathBuf};
 
@@ -21,7 +22,8 @@ pub struct LoadMeshParams {
     /// The mesh file, relative to the pipeline file's folder. Required. The format comes from
     /// the extension: `.obj`, `.ply`, `.off`, `.stl` (any case).
     pub path: PathBuf,
-    /// Split non-manifold edges and vertices instead of failing (default false).
+    /// Split non-manifold edges and vertices instead of failing, and flip faces so that each
+    /// component is coherently oriented, a closed one outward (default false).
     pub repair: bool,
     /// Fail on faces with a repeated vertex index instead of dropping them (default false).
     pub reject_degenerate: bool,
@@ -95,6 +97,8 @@ pub fn load_report(r: &LoadReport) -> Report {
         .set("vertices_split", r.vertices_split)
         .set("zero_area_faces", r.zero_area_faces)
         .set("inconsistent_edges", r.inconsistent_edges)
+        .set("faces_flipped", r.faces_flipped)
+        .set("nonorientable_components", r.nonorientable_components)
         .set("boundary_edges", r.boundary_edges)
         .set("components", r.components)
         .set("vertices", r.vertices)
@@ -117,12 +121,13 @@ pub struct LoadMeshNode;
 impl NodeKind for LoadMeshNode {
     type Params = LoadMeshParams;
     const KIND: &'static str = "io.load_mesh";
-    const VERSION: u32 = 1;
+    const VERSION: u32 = 2;
     const DOC: &'static str = "Loads a triangle mesh from OBJ, PLY (ascii/binary, face lists and \
         triangle strips), OFF or STL (coincident corners welded). Polygons are fan-triangulated; \
         degenerate and duplicate faces and unreferenced vertices are dropped and reported; empty \
         meshes, NaN/inf coordinates, out-of-range indices and non-manifold edges or vertices are \
-        errors unless `repair: true` splits the latter. The input of the curvature and ridge \
+        errors unless `repair: true` splits the latter; `repair: true` also flips faces so that \
+        each component is coherently oriented (a closed one outward). The input of the curvature and ridge \
         steps (thesis §2.4, §2.5). Outputs the mesh and a report of what loading found.";
 
     fn inputs() -> Vec<Port> {

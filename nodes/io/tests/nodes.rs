@@ -211,6 +211,46 @@ fn load_node_errors_keep_the_typed_source() {
     assert!(err.message.contains("nope.obj"), "{}", err.message);
 }
 
+#[test]
+fn load_node_repair_orients_the_faces() {
+    // The tetrahedron of the other tests, outward, with face 1 turned over.
+    let off = "OFF\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 3 1\n3 0 3 2\n3 1 2 3\n";
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("t.off"), off).unwrap();
+    let sink = Sink::default();
+    let out = run(
+        "io.load_mesh",
+        "(path: \"t.off\")",
+        &Inputs::new(),
+        dir.path(),
+        &sink,
+    )
+    .unwrap();
+    let report = out.get("report").unwrap().downcast_ref::<Report>().unwrap();
+    assert_eq!(report.num("inconsistent_edges"), Some(3.0));
+    assert_eq!(report.num("faces_flipped"), Some(0.0));
+    assert_eq!(
+        sink.0.lock().unwrap().clone(),
+        [
+            "n: t.off: 3 edges with inconsistently oriented faces (load with `repair: true` to \
+          orient them coherently)"
+        ]
+    );
+    let out = run(
+        "io.load_mesh",
+        "(path: \"t.off\", repair: true)",
+        &Inputs::new(),
+        dir.path(),
+        &sink,
+    )
+    .unwrap();
+    let mesh = out.get("mesh").unwrap().downcast_ref::<TriMesh>().unwrap();
+    assert_eq!(mesh.triangles, [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]]);
+    let report = out.get("report").unwrap().downcast_ref::<Report>().unwrap();
+    assert_eq!(report.num("faces_flipped"), Some(1.0));
+    assert_eq!(report.num("nonorientable_components"), Some(0.0));
+}
+
 fn tetra() -> TriMesh {
     TriMesh::new(
         vec![

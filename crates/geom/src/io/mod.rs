@@ -15,6 +15,7 @@
 //! | vertex used by no face | dropped, counted (order of the others kept) |
 //! | STL corners closer than [`WELD_TOLERANCE`] × the bounding-box diagonal | welded into one vertex, counted |
 //! | edge with more than two faces, vertex whose faces form several fans | [`MeshError::NonManifold`]; with [`LoadOptions::repair`] the vertices are split instead |
+//! | faces of a component oriented inconsistently (two faces running along an edge the same way) | reported; with [`LoadOptions::repair`] faces are flipped so that each component is coherent (a closed one outward) |
 //! | several connected components, boundary edges, zero-area faces | reported in [`LoadReport`] |
 //!
 //! Writers ([`save_mesh_ply`], [`save_mesh_obj`], [`save_curves_ply`], [`save_curves_obj`])
@@ -51,7 +52,8 @@ pub use write::{
 pub struct LoadOptions {
     /// Split non-manifold edges and vertices (duplicate vertices so that every edge has at most
     /// two faces and every vertex's faces form one fan) instead of failing with
-    /// [`MeshError::NonManifold`].
+    /// [`MeshError::NonManifold`], and flip faces so that each component is coherently
+    /// oriented (a closed one outward).
     pub repair: bool,
     /// Fail with [`MeshError::DegenerateFace`] on a face with a repeated vertex index instead of
     /// dropping it.
@@ -89,8 +91,16 @@ pub struct LoadReport {
     /// Triangles with (nearly) zero area: kept, but curvature there is unreliable.
     pub zero_area_faces: usize,
     /// Interior edges whose two faces run along it in the same direction (inconsistent
-    /// orientation).
+    /// orientation; found before any repair).
     pub inconsistent_edges: usize,
+    /// Faces turned over by the repair so that each component is coherently oriented
+    /// (0 without `repair`).
+    #[serde(default)]
+    pub faces_flipped: usize,
+    /// Components that no choice of face orientations makes coherent (a Möbius strip); their
+    /// inconsistent edges stay after the repair.
+    #[serde(default)]
+    pub nonorientable_components: usize,
     /// Edges with exactly one face, in the final mesh.
     pub boundary_edges: usize,
     /// Connected components (through shared edges), in the final mesh.
@@ -129,8 +139,21 @@ impl LoadReport {
             "zero-area faces (curvature unreliable there)",
         );
         say(
-            self.inconsistent_edges,
-            "edges with inconsistently oriented faces",
+            if self.faces_flipped == 0 {
+                self.inconsistent_edges
+            } else {
+                0
+            },
+            "edges with inconsistently oriented faces (load with `repair: true` to orient \
+             them coherently)",
+        );
+        say(
+            self.faces_flipped,
+            "faces flipped by repair to orient each component coherently",
+        );
+        say(
+            self.nonorientable_components,
+            "non-orientable components (their inconsistent edges stay)",
         );
         if self.components > 1 {
             w.push(format!("{} connected components", self.components));

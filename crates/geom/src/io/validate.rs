@@ -1,5 +1,6 @@
 //! Validation and cleaning shared by every reader: triangulation, degenerate and duplicate
-//! faces, unreferenced vertices, non-manifold detection and repair, statistics.
+//! faces, unreferenced vertices, non-manifold detection and repair, orientation repair,
+//! statistics.
 //!
 //! Non-manifold repair works on corners (a face's use of a vertex). Two corners of the same
 //! vertex are joined when their faces share a manifold edge (exactly two faces) at that vertex;
@@ -12,7 +13,7 @@
 use std::path::Path;
 
 use super::{LoadOptions, LoadReport, LoadedMesh, MeshError, RawMesh};
-use crate::mesh::{TriMesh, NO_FACE};
+use crate::mesh::{Topology, TriMesh, NO_FACE};
 use crate::vec3;
 
 /// Non-manifold edges and vertices of a triangle soup, and the vertex split that removes them.
@@ -324,7 +325,7 @@ pub(crate) fn build(
         report.vertices_split = nm.split_from.len();
     }
 
-    let mesh = TriMesh::new(positions, tris);
+    let mut mesh = TriMesh::new(positions, tris);
     let topo = mesh.topology();
     report.boundary_edges = topo.boundary_edge_count();
     report.zero_area_faces = (0..mesh.n_faces())
@@ -338,22 +339,126 @@ pub(crate) fn build(
             continue;
         }
         union(&mut parent, faces[0], faces[1]);
-        let forward = |f: u32| {
-            let side = (0..3)
-                .find(|&i| topo.face_edges[f as usize][i] == e as u32)
-                .unwrap_or(0);
-            mesh.triangles[f as usize][side] == topo.edges[e][0]
-        };
-        if forward(faces[0]) == forward(faces[1]) {
+        if forward(&mesh, topo, faces[0], e) == forward(&mesh, topo, faces[1], e) {
             report.inconsistent_edges += 1;
         }
     }
     report.components = (0..parent.len() as u32)
         .filter(|&f| find(&mut parent, f) == f)
         .count();
+    if options.repair && report.inconsistent_edges > 0 {
+        let o = orient_coherently(&mesh, topo);
+        report.faces_flipped = o.flip.iter().filter(|&&f| f).count();
+        report.nonorientable_components = o.nonorientable_components;
+        let mut tris = mesh.triangles.clone();
+        for (t, &flip) in tris.iter_mut().zip(&o.flip) {
+            if flip {
+                t.swap(1, 2);
+            }
+        }
+        mesh = TriMesh::new(mesh.positions.clone(), tris);
+    }
     report.vertices = mesh.n_vertices();
     report.faces = mesh.n_faces();
     Ok(LoadedMesh { mesh, report })
+}
+
+/// Whether face `f` runs along edge `e` from the edge's first vertex to its second.
+pub(super) fn forward(mesh: &TriMesh, topo: &Topology, f: u32, e: usize) -> bool {
+    let side = (0..3)
+        .find(|&i| topo.face_edges[f as usize][i] == e as u32)
+        .unwrap_or(0);
+    mesh.triangles[f as usize][side] == topo.edges[e][0]
+}
+
+/// Which faces to flip so that every component runs coherently.
+struct Orientation {
+    flip: Vec<bool>,
+    /// Components where no choice agrees across every edge (a Möbius strip).
+    nonorientable_components: usize,
+}
+
+/// Orients the faces of each component that has inconsistent edges coherently (as MeshLab's
+/// "re-orient all faces coherently" or libigl's `bfs_orient`): a breadth-first walk over its
+/// interior edges from its first face sets each face against the one it was reached from.
+/// Of the two coherent orientations the component then takes the outward one when it is
+/// closed (positive signed volume, so normals and curvature signs point the usual way), else
+/// the one that flips fewer faces. Components without an inconsistent edge are left as they
+/// are (an inside-out closed surface stays inside-out).
+fn orient_coherently(mesh: &TriMesh, topo: &Topology) -> Orientation {
+    let nf = mesh.n_faces();
+    let mut flip = vec![false; nf];
+    let mut seen = vec![false; nf];
+    // Each face's flip relative to the first face of its component.
+    let mut rel = vec![false; nf];
+    let mut nonorientable_components = 0;
+    let mut queue: Vec<u32> = Vec::new();
+    for seed in 0..nf as u32 {
+        if seen[seed as usize] {
+            continue;
+        }
+        // Walk the component: `want[f]` is f's flip relative to the seed's orientation.
+        seen[seed as usize] = true;
+        queue.clear();
+        queue.push(seed);
+        let (mut inconsistent, mut conflicts, mut closed) = (false, false, true);
+        let mut k = 0;
+        while k < queue.len() {
+            let f = queue[k];
+            k += 1;
+            let of = rel[f as usize];
+            for &e in &topo.face_edges[f as usize] {
+                let e = e as usize;
+                let [a, b] = topo.edge_faces[e];
+                if b == NO_FACE {
+                    closed = false;
+                    continue;
+                }
+                let g = if a == f { b } else { a };
+                let (ff, fg) = (forward(mesh, topo, f, e), forward(mesh, topo, g, e));
+                inconsistent |= ff == fg;
+                // After flipping, f and g must run along e in opposite directions.
+                let og = !(ff ^ of) ^ fg;
+                if seen[g as usize] {
+                    conflicts |= rel[g as usize] != og;
+                } else {
+                    seen[g as usize] = true;
+                    rel[g as usize] = og;
+                    queue.push(g);
+                }
+            }
+        }
+        if !inconsistent {
+            continue;
+        }
+        nonorientable_components += conflicts as usize;
+        let flipped = queue.iter().filter(|&&f| rel[f as usize]).count();
+        let reverse = if closed && !conflicts {
+            // Six times the signed volume with the first face's orientation.
+            let volume: f64 = queue
+                .iter()
+                .map(|&f| {
+                    let [p, q, r] = mesh.face_points(f as usize);
+                    let v = vec3::dot(p, vec3::cross(q, r));
+                    if rel[f as usize] {
+                        -v
+                    } else {
+                        v
+                    }
+                })
+                .sum();
+            volume < 0.0
+        } else {
+            2 * flipped > queue.len()
+        };
+        for &f in &queue {
+            flip[f as usize] = rel[f as usize] ^ reverse;
+        }
+    }
+    Orientation {
+        flip,
+        nonorientable_components,
+    }
 }
 
 #[cfg(test)]

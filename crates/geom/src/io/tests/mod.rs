@@ -934,3 +934,185 @@ fn obj_reader_agrees_with_tobj_on_shared_meshes() {
         assert!(mine == theirs, "{f}: triangles differ from tobj's");
     }
 }
+
+fn off_text(positions: &[[f64; 3]], tris: &[[u32; 3]]) -> String {
+    let mut s = format!("OFF\n{} {} 0\n", positions.len(), tris.len());
+    for p in positions {
+        s += &format!("{:?} {:?} {:?}\n", p[0], p[1], p[2]);
+    }
+    for t in tris {
+        s += &format!("3 {} {} {}\n", t[0], t[1], t[2]);
+    }
+    s
+}
+
+fn repair() -> LoadOptions {
+    LoadOptions {
+        repair: true,
+        ..Default::default()
+    }
+}
+
+fn flipped(t: [u32; 3]) -> [u32; 3] {
+    [t[0], t[2], t[1]]
+}
+
+#[test]
+fn orientation_repair_turns_a_closed_surface_outward() {
+    let sphere = crate::shapes::sphere(1.0, 2).unwrap();
+    let n = sphere.n_faces();
+    let d = tempfile::tempdir().unwrap();
+    // Every third face turned over.
+    let tris: Vec<[u32; 3]> = (0..n)
+        .map(|f| match f % 3 {
+            0 => flipped(sphere.triangles[f]),
+            _ => sphere.triangles[f],
+        })
+        .collect();
+    let p = file(
+        &d,
+        "third.off",
+        off_text(&sphere.positions, &tris).as_bytes(),
+    );
+    let plain = load(&p).unwrap();
+    assert_eq!(plain.mesh.triangles, tris, "nothing changes without repair");
+    assert_eq!(plain.report.faces_flipped, 0);
+    assert!(plain.report.inconsistent_edges > 0);
+    assert!(plain
+        .report
+        .warnings()
+        .iter()
+        .any(|w| w.contains("inconsistently oriented") && w.contains("repair: true")));
+    let m = load_mesh(&p, &repair()).unwrap();
+    assert_eq!(
+        m.mesh.triangles, sphere.triangles,
+        "the outward sphere back"
+    );
+    assert_eq!(m.report.faces_flipped, n.div_ceil(3));
+    assert_eq!(m.report.inconsistent_edges, plain.report.inconsistent_edges);
+    assert_eq!(m.report.nonorientable_components, 0);
+    assert!(m
+        .report
+        .warnings()
+        .iter()
+        .any(|w| w.contains("faces flipped")));
+    // All faces inside out but the first: the coherent choice that keeps the first face
+    // points inward, so the closed surface takes the other one (n − 1 flips).
+    let tris: Vec<[u32; 3]> = (0..n)
+        .map(|f| match f {
+            0 => sphere.triangles[f],
+            _ => flipped(sphere.triangles[f]),
+        })
+        .collect();
+    let p = file(
+        &d,
+        "inside.off",
+        off_text(&sphere.positions, &tris).as_bytes(),
+    );
+    let m = load_mesh(&p, &repair()).unwrap();
+    assert_eq!(m.mesh.triangles, sphere.triangles);
+    assert_eq!(m.report.faces_flipped, n - 1);
+    // A coherent inside-out sphere is not an inconsistency: repair leaves it alone.
+    let tris: Vec<[u32; 3]> = sphere.triangles.iter().map(|&t| flipped(t)).collect();
+    let p = file(
+        &d,
+        "inverted.off",
+        off_text(&sphere.positions, &tris).as_bytes(),
+    );
+    let m = load_mesh(&p, &repair()).unwrap();
+    assert_eq!(m.mesh.triangles, tris);
+    assert_eq!(
+        (m.report.inconsistent_edges, m.report.faces_flipped),
+        (0, 0)
+    );
+}
+
+#[test]
+fn orientation_repair_flips_the_fewest_faces_of_an_open_surface() {
+    // A 10 × 10 grid of the unit square (200 triangles), three of them turned over, and a
+    // second, separate grid turned over except for two faces.
+    let k = 10u32;
+    let mut positions = Vec::new();
+    for y in 0..=k {
+        for x in 0..=k {
+            positions.push([x as f64, y as f64, 0.0]);
+        }
+    }
+    let at = |x: u32, y: u32| y * (k + 1) + x;
+    let mut grid = Vec::new();
+    for y in 0..k {
+        for x in 0..k {
+            grid.push([at(x, y), at(x + 1, y), at(x + 1, y + 1)]);
+            grid.push([at(x, y), at(x + 1, y + 1), at(x, y + 1)]);
+        }
+    }
+    let nv = positions.len() as u32;
+    let lifted: Vec<[f64; 3]> = positions.iter().map(|p| [p[0], p[1], 5.0]).collect();
+    positions.extend(lifted);
+    let second: Vec<[u32; 3]> = grid.iter().map(|t| t.map(|v| v + nv)).collect();
+    let mut tris = grid.clone();
+    for f in [0usize, 57, 133] {
+        tris[f] = flipped(tris[f]);
+    }
+    tris.extend(second.iter().enumerate().map(|(f, &t)| match f {
+        3 | 90 => t,
+        _ => flipped(t),
+    }));
+    let d = tempfile::tempdir().unwrap();
+    let p = file(&d, "grids.off", off_text(&positions, &tris).as_bytes());
+    let m = load_mesh(&p, &repair()).unwrap();
+    let mut expect = grid.clone();
+    expect.extend(second.iter().map(|&t| flipped(t)));
+    assert_eq!(m.mesh.triangles, expect);
+    assert_eq!((m.report.faces_flipped, m.report.components), (3 + 2, 2));
+}
+
+#[test]
+fn a_moebius_strip_is_reported_not_orientable() {
+    // 24 quads around a circle with a half twist: the last quad joins the first with its
+    // two sides swapped.
+    let n = 24u32;
+    let mut positions = Vec::new();
+    for i in 0..n {
+        let a = i as f64 / n as f64 * std::f64::consts::TAU;
+        let (c, s) = ((a / 2.0).cos() * 0.3, (a / 2.0).sin() * 0.3);
+        for side in [-1.0, 1.0] {
+            let r = 1.0 + side * c;
+            positions.push([r * a.cos(), r * a.sin(), side * s]);
+        }
+    }
+    let mut tris = Vec::new();
+    for i in 0..n {
+        let (a, b) = (2 * i, 2 * i + 1);
+        let (c, d) = if i + 1 == n {
+            (1, 0)
+        } else {
+            (2 * i + 2, 2 * i + 3)
+        };
+        tris.push([a, c, b]);
+        tris.push([b, c, d]);
+    }
+    let d = tempfile::tempdir().unwrap();
+    let p = file(&d, "moebius.off", off_text(&positions, &tris).as_bytes());
+    let plain = load(&p).unwrap();
+    assert_eq!(plain.report.inconsistent_edges, 1, "the seam");
+    let m = load_mesh(&p, &repair()).unwrap();
+    assert_eq!(m.report.nonorientable_components, 1);
+    assert_eq!(m.mesh.n_faces(), 2 * n as usize);
+    assert!(m
+        .report
+        .warnings()
+        .iter()
+        .any(|w| w.contains("non-orientable")));
+    // Whatever it flipped, one edge still disagrees.
+    let topo = m.mesh.topology();
+    let disagree = (0..topo.edges.len())
+        .filter(|&e| {
+            let [f, g] = topo.edge_faces[e];
+            g != crate::mesh::NO_FACE
+                && super::validate::forward(&m.mesh, topo, f, e)
+                    == super::validate::forward(&m.mesh, topo, g, e)
+        })
+        .count();
+    assert!(disagree >= 1);
+}
