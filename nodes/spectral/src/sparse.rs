@@ -568,6 +568,12 @@ pub enum OperatorError {
     NonFinitePosition { vertex: usize, position: [f64; 3] },
     #[error("mollify = {0} must be finite and in [0, 0.1]")]
     BadMollify(f64),
+    #[error(
+        "the mesh's bounding box is {side:e} across, outside the range where triangle areas \
+         are representable in double precision (about 1e-75 to 1e75): scale the mesh to a \
+         size near 1"
+    )]
+    Scale { side: f64 },
     #[error(transparent)]
     Sparse(#[from] SparseError),
 }
@@ -602,6 +608,14 @@ fn check_mesh(mesh: &TriMesh, opts: &LaplacianOptions) -> Result<(), OperatorErr
             n_vertices,
         },
     })?;
+    // Heron's product is of degree 4 in the lengths: finite coordinates far from 1 overflow
+    // to infinite or underflow to zero areas, which would leave a NaN or an empty operator.
+    // The box's largest side, not its diagonal, whose own squares can underflow.
+    let (lo, hi) = mesh.bbox();
+    let side = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max);
+    if side > 0.0 && !side.powi(4).is_normal() {
+        return Err(OperatorError::Scale { side });
+    }
     for (face, t) in mesh.triangles.iter().enumerate() {
         if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
             let vertex = if t[0] == t[1] || t[0] == t[2] {

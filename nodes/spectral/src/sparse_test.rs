@@ -208,6 +208,33 @@ fn bad_meshes_are_rejected_with_the_element() {
         cotan_laplacian(&m),
         Err(OperatorError::RepeatedVertex { face: 0, vertex: 1 })
     );
+    // Finite coordinates whose areas overflow or underflow: an error naming the size, not a
+    // NaN or an empty operator.
+    let exact =
+        laplacian_and_mass(&right_triangle(), &LaplacianOptions::default(), Par::Seq).unwrap();
+    for scale in [1e100, 1e-100] {
+        let mut m = right_triangle();
+        for p in &mut m.positions {
+            *p = p.map(|c| c * scale);
+        }
+        let err = laplacian_and_mass(&m, &LaplacianOptions::default(), Par::Seq).unwrap_err();
+        assert!(matches!(err, OperatorError::Scale { .. }), "{err:?}");
+        assert!(err.to_string().contains("scale the mesh"), "{err}");
+    }
+    // Within the range the cotangent weights are scale-free and the masses scale as areas.
+    for scale in [1e60, 1e-60] {
+        let mut m = right_triangle();
+        for p in &mut m.positions {
+            *p = p.map(|c| c * scale);
+        }
+        let (l, mass) = laplacian_and_mass(&m, &LaplacianOptions::default(), Par::Seq).unwrap();
+        for (a, b) in l.values().iter().zip(exact.0.values()) {
+            assert!((a - b).abs() < 1e-9, "{a} {b}");
+        }
+        for (a, b) in mass.iter().zip(&exact.1) {
+            assert!((a / (scale * scale) - b).abs() < 1e-9 * b, "{a} {b}");
+        }
+    }
 }
 
 /// Two unit spheres side by side (a forest: the elimination tree has two roots).
