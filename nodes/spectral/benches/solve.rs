@@ -1,10 +1,10 @@
 //! Triangular-solve benchmark: the sparse Cholesky solves of `SpdSolver` on the factor of
 //! `L + M` (cotangent Laplacian plus lumped mass) of a mesh, one right-hand side and a
-//! block of eight, on one thread. Prints the fastest time and nanoseconds per factor value
+//! block of eight, on one thread; blocks of four on one thread and over the pool. Prints the fastest time and nanoseconds per factor value
 //! (each value is read twice per solve: forward and backward).
 //!
 //! Usage: `cargo bench -p crestflow-nodes-spectral --bench solve -- [MESH | --sphere LEVEL]
-//! [--repeats N] [--only 1|8]` (default: unit icosphere of level 6; give MESH as an absolute path, since
+//! [--repeats N] [--only 1|4|8]` (default: unit icosphere of level 6; give MESH as an absolute path, since
 //! cargo runs benches in the crate's folder).
 
 use std::time::Instant;
@@ -37,7 +37,7 @@ fn main() {
                 only = Some(
                     value("--only", &mut args)
                         .parse::<usize>()
-                        .expect("--only 1|8"),
+                        .expect("--only 1|4|8"),
                 )
             }
             _ => path = Some(arg),
@@ -98,6 +98,22 @@ fn main() {
             solver.solve_many(&mut bp, m, Par::Rayon).expect("solve");
         })
     });
+    // The eigensolver's case at k < 64 (blocks of four): one group, its elimination subtrees
+    // over the rayon pool, against the same four columns on one thread.
+    let four: Vec<f64> = block[..4 * n].to_vec();
+    let mut b4 = four.clone();
+    let t4 = timed(4).then(|| {
+        fastest(repeats / 2 + 1, &mut || {
+            b4.copy_from_slice(&four);
+            solver.solve_many(&mut b4, 4, Par::Seq).expect("solve");
+        })
+    });
+    let t4p = timed(4).then(|| {
+        fastest(repeats / 2 + 1, &mut || {
+            b4.copy_from_slice(&four);
+            solver.solve_many(&mut b4, 4, Par::Rayon).expect("solve");
+        })
+    });
     // Milliseconds and nanoseconds per value (per value and column for the block).
     let figures = |t: Option<f64>, per: f64| match t {
         Some(t) => (format!("{:.3}", t * 1e3), format!("{:.3}", t * 1e9 / per)),
@@ -106,7 +122,9 @@ fn main() {
     let (one_ms, one_ns) = figures(t1, nnz);
     let (eight_ms, eight_ns) = figures(t8, nnz * m as f64);
     let (pool_ms, _) = figures(t8p, nnz * m as f64);
+    let (four_ms, _) = figures(t4, nnz * 4.0);
+    let (four_pool_ms, _) = figures(t4p, nnz * 4.0);
     println!(
-        "{{\"n\": {n}, \"factor_values\": {nnz}, \"one_ms\": {one_ms}, \"one_ns_per_value\": {one_ns}, \"eight_ms\": {eight_ms}, \"eight_ns_per_value_column\": {eight_ns}, \"eight_pool_ms\": {pool_ms}, \"checksum\": {check:.17e}}}"
+        "{{\"n\": {n}, \"factor_values\": {nnz}, \"one_ms\": {one_ms}, \"one_ns_per_value\": {one_ns}, \"eight_ms\": {eight_ms}, \"eight_ns_per_value_column\": {eight_ns}, \"eight_pool_ms\": {pool_ms}, \"four_ms\": {four_ms}, \"four_pool_ms\": {four_pool_ms}, \"checksum\": {check:.17e}}}"
     );
 }
