@@ -391,7 +391,7 @@ fn sym_eig_desc(h: &[f64], m: usize) -> (Vec<f64>, Vec<f64>) {
 /// constant vector can dominate every column of a block by 1e9 and more), modified
 /// Gram–Schmidt first, column by column, then SVQB on the result. Returns the q × q factor
 /// `R` with `W_old = W_new R`, or `None` when the block is rank deficient (a column keeps
-/// less than 1e-13 of its norm).
+/// less than 1e-13 of its norm; `w` is then left part-way, and the caller gives the run up).
 fn svqb(w: &mut [f64], q: usize, mass: &[f64], n: usize, par: Par) -> Option<Vec<f64>> {
     if let Some(r) = svqb_once(w, q, mass, n, par) {
         return Some(r);

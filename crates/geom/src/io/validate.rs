@@ -397,7 +397,7 @@ fn orient_coherently(mesh: &TriMesh, topo: &Topology) -> Orientation {
         if seen[seed as usize] {
             continue;
         }
-        // Walk the component: `want[f]` is f's flip relative to the seed's orientation.
+        // Walk the component: `rel[f]` is f's flip relative to the seed's orientation.
         seen[seed as usize] = true;
         queue.clear();
         queue.push(seed);
