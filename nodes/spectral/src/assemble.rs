@@ -2,7 +2,7 @@
 //! for iterative methods such as Laplacian smoothing.
 //!
 //! The sparsity pattern of [`crate::sparse::laplacian_and_mass`] depends on the triangles
-//! only. Instead of assembling from triplets at every step (a sort of 12 entries per face), the
+//! only. Instead of gathering and sorting every row's entries again at every step, the
 //! pattern is built once from the mesh's edges and the values are written straight into it
 //! through precomputed slots. The per-face terms are the same functions, summed in the same
 //! face and corner order, so the result equals `laplacian_and_mass` bit for bit (tested).

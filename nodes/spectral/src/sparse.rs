@@ -644,15 +644,6 @@ fn face_lengths(mesh: &TriMesh, f: usize) -> [f64; 3] {
     triangle_lengths(&mesh.positions, mesh.triangles[f])
 }
 
-/// The mollification δ added to every edge length (module docs).
-fn mollify_delta(mesh: &TriMesh, mollify: f64) -> f64 {
-    if mollify == 0.0 {
-        return 0.0;
-    }
-    let lens: Vec<[f64; 3]> = (0..mesh.n_faces()).map(|f| face_lengths(mesh, f)).collect();
-    mollify_delta_of_lengths(&lens, mollify)
-}
-
 /// The mollification δ from the faces' edge lengths.
 pub(crate) fn mollify_delta_of_lengths(lens: &[[f64; 3]], mollify: f64) -> f64 {
     if mollify == 0.0 {
@@ -733,28 +724,149 @@ fn all_face_terms(
     par: Par,
 ) -> Result<Vec<FaceTerms>, OperatorError> {
     check_mesh(mesh, opts)?;
-    let delta = mollify_delta(mesh, opts.mollify);
+    let lens = par.map_collect(mesh.n_faces(), |f| face_lengths(mesh, f));
+    let delta = mollify_delta_of_lengths(&lens, opts.mollify);
     Ok(par.map_collect(mesh.n_faces(), |f| {
-        let l = face_lengths(mesh, f);
+        let l = lens[f];
         face_terms([l[0] + delta, l[1] + delta, l[2] + delta], opts.mass)
     }))
 }
 
-fn assemble_laplacian(mesh: &TriMesh, terms: &[FaceTerms]) -> Result<CsrMatrix, OperatorError> {
+/// Rows assembled per parallel task (a fixed split: the result does not depend on it).
+const ROWS_PER_TASK: usize = 4096;
+
+/// Assembles `L` and the lumped mass row by row, without a global sort. Each row visits the
+/// faces at its vertex in face order (a counting sort of the corners) and, within a face, the
+/// corners in order: its off-diagonal entries arrive in the order of the triplets of
+/// [`CsrMatrix::from_triplets`] in face order, are sorted by column (stably, by insertion:
+/// an interior row holds about 12) and summed per column in that order; the diagonal and the
+/// mass are summed in that order too. The result is therefore bit for bit that of the
+/// triplet sum and of [`assemble_mass`], on any thread count, in a fraction of the time (the
+/// triplets' global counting sorts took half of the operator's time).
+fn assemble_laplacian_and_mass(
+    mesh: &TriMesh,
+    terms: &[FaceTerms],
+    par: Par,
+) -> Result<(CsrMatrix, Vec<f64>), OperatorError> {
     let n = mesh.n_vertices();
-    let mut trip = Vec::with_capacity(terms.len() * 12);
-    for (t, ft) in mesh.triangles.iter().zip(terms) {
-        for i in 0..3 {
-            // The side opposite corner i joins corners j and k.
-            let (j, k) = (t[(i + 1) % 3] as usize, t[(i + 2) % 3] as usize);
-            let w = 0.5 * ft.cot[i];
-            trip.push((j, k, -w));
-            trip.push((k, j, -w));
-            trip.push((j, j, w));
-            trip.push((k, k, w));
+    let mut start = vec![0usize; n + 1];
+    for t in &mesh.triangles {
+        for &v in t {
+            start[v as usize + 1] += 1;
         }
     }
-    Ok(CsrMatrix::from_triplets(n, n, &trip)?)
+    for v in 0..n {
+        start[v + 1] += start[v];
+    }
+    let mut faces_at = vec![0u32; start[n]];
+    let mut next = start[..n].to_vec();
+    for (f, t) in mesh.triangles.iter().enumerate() {
+        for &v in t {
+            faces_at[next[v as usize]] = f as u32;
+            next[v as usize] += 1;
+        }
+    }
+    drop(next);
+    let tasks = n.div_ceil(ROWS_PER_TASK);
+    type Part = (Vec<usize>, Vec<usize>, Vec<f64>, Vec<f64>);
+    let parts: Vec<Part> = par.map_collect(tasks, |task| {
+        let rows = task * ROWS_PER_TASK..((task + 1) * ROWS_PER_TASK).min(n);
+        let mut lens = Vec::with_capacity(rows.len());
+        let mut mass = Vec::with_capacity(rows.len());
+        let mut cols = Vec::new();
+        let mut vals = Vec::new();
+        let mut row: Vec<(u32, f64)> = Vec::new();
+        for r in rows {
+            row.clear();
+            let (mut diag, mut m) = (0.0, 0.0);
+            let faces = &faces_at[start[r]..start[r + 1]];
+            for &f in faces {
+                let t = mesh.triangles[f as usize];
+                let ft = &terms[f as usize];
+                for i in 0..3 {
+                    // The side opposite corner i joins corners j and k.
+                    let (j, k) = (t[(i + 1) % 3] as usize, t[(i + 2) % 3] as usize);
+                    if j == r || k == r {
+                        let w = 0.5 * ft.cot[i];
+                        row.push(((j + k - r) as u32, -w));
+                        diag += w;
+                    } else {
+                        // Corner i is r itself.
+                        m += ft.mass[i];
+                    }
+                }
+            }
+            mass.push(m);
+            for a in 1..row.len() {
+                let mut b = a;
+                while b > 0 && row[b - 1].0 > row[b].0 {
+                    row.swap(b - 1, b);
+                    b -= 1;
+                }
+            }
+            let before = cols.len();
+            // A vertex no face references keeps an empty row.
+            let mut diag_done = faces.is_empty();
+            for &(c, v) in &row {
+                let c = c as usize;
+                if !diag_done && c > r {
+                    cols.push(r);
+                    vals.push(diag);
+                    diag_done = true;
+                }
+                if cols.len() > before && *cols.last().unwrap() == c {
+                    *vals.last_mut().unwrap() += v;
+                } else {
+                    cols.push(c);
+                    vals.push(v);
+                }
+            }
+            if !diag_done {
+                cols.push(r);
+                vals.push(diag);
+            }
+            lens.push(cols.len() - before);
+        }
+        (lens, cols, vals, mass)
+    });
+    let nnz = parts.iter().map(|p| p.1.len()).sum();
+    let mut row_ptr = Vec::with_capacity(n + 1);
+    row_ptr.push(0);
+    let mut col_idx = Vec::with_capacity(nnz);
+    let mut values = Vec::with_capacity(nnz);
+    let mut mass = Vec::with_capacity(n);
+    for (lens, cols, vals, m) in parts {
+        for len in lens {
+            row_ptr.push(row_ptr.last().unwrap() + len);
+        }
+        col_idx.extend_from_slice(&cols);
+        values.extend_from_slice(&vals);
+        mass.extend_from_slice(&m);
+    }
+    // Face terms are finite by construction (dropped triangles contribute zeros); checked
+    // all the same, so no NaN can reach a solver.
+    for r in 0..n {
+        for p in row_ptr[r]..row_ptr[r + 1] {
+            if !values[p].is_finite() {
+                return Err(SparseError::NonFinite {
+                    row: r,
+                    col: col_idx[p],
+                    value: values[p],
+                }
+                .into());
+            }
+        }
+    }
+    Ok((
+        CsrMatrix {
+            nrows: n,
+            ncols: n,
+            row_ptr,
+            col_idx,
+            values,
+        },
+        mass,
+    ))
 }
 
 fn assemble_mass(mesh: &TriMesh, terms: &[FaceTerms]) -> Vec<f64> {
@@ -775,16 +887,13 @@ pub fn laplacian_and_mass(
     par: Par,
 ) -> Result<(CsrMatrix, Vec<f64>), OperatorError> {
     let terms = all_face_terms(mesh, opts, par)?;
-    Ok((
-        assemble_laplacian(mesh, &terms)?,
-        assemble_mass(mesh, &terms),
-    ))
+    assemble_laplacian_and_mass(mesh, &terms, par)
 }
 
 /// The cotangent stiffness matrix `L` with default options (module docs).
 pub fn cotan_laplacian(mesh: &TriMesh) -> Result<CsrMatrix, OperatorError> {
     let terms = all_face_terms(mesh, &LaplacianOptions::default(), Par::Seq)?;
-    assemble_laplacian(mesh, &terms)
+    Ok(assemble_laplacian_and_mass(mesh, &terms, Par::Seq)?.0)
 }
 
 /// The lumped mass diagonal with default options (mixed Voronoi areas).
