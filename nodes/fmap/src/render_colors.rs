@@ -8,7 +8,7 @@ use std::path::PathBuf;
 use serde::{Deserialize, Serialize};
 
 use crestflow_flow::{
-    check_range, Ctx, Inputs, NodeError, NodeKind, Outputs, ParamIssue, Port, Report, Validate,
+    check_range, Ctx, Inputs, NodeError, NodeKind, Outputs, Par, ParamIssue, Port, Report, Validate,
 };
 use crestflow_geom::{FeatureCurveNetwork, TriMesh};
 use crestflow_nodes_render::raster::{rasterize, Camera, Scene, Segment, Style, View};
@@ -69,6 +69,7 @@ fn panel(
     colors: &[[f64; 3]],
     curves: Option<&FeatureCurveNetwork>,
     p: &RenderColorsParams,
+    par: Par,
 ) -> RgbImage {
     let vn = mesh.vertex_normals();
     let corner_normals: Vec<_> = mesh
@@ -112,7 +113,7 @@ fn panel(
         corner_normals: &corner_normals,
         vertex_colors: colors,
     };
-    rasterize(&scene, &segments, &camera, &style).0
+    rasterize(&scene, &segments, &camera, &style, par).0
 }
 
 /// Renders both panels into one image (source left, target right).
@@ -122,6 +123,7 @@ pub fn render_pair(
     colors: &VertexColors,
     curves: (Option<&FeatureCurveNetwork>, Option<&FeatureCurveNetwork>),
     params: &RenderColorsParams,
+    par: Par,
 ) -> Result<RgbImage, FmapError> {
     for (side, mesh, c) in [
         ("source", source, &colors.source),
@@ -142,8 +144,8 @@ pub fn render_pair(
         mesh.check_data()
             .map_err(|d| FmapError::Render(format!("{side} mesh: {d:?}")))?;
     }
-    let a = panel(source, &colors.source, curves.0, params);
-    let b = panel(target, &colors.target, curves.1, params);
+    let a = panel(source, &colors.source, curves.0, params, par);
+    let b = panel(target, &colors.target, curves.1, params, par);
     let (w, h) = (params.width as usize, params.height as usize);
     let mut pixels = vec![0u8; 3 * 2 * w * h];
     for y in 0..h {
@@ -191,6 +193,7 @@ impl NodeKind for RenderColorsNode {
             inputs.get("colors")?,
             (inputs.opt("source_curves")?, inputs.opt("target_curves")?),
             params,
+            ctx.par,
         )
         .map_err(FmapError::into_node)?;
         let path = ctx.resolve(&params.path);

@@ -135,7 +135,7 @@ fn side_by_side_picture_shows_both_shapes() {
         height: 48,
         ..Default::default()
     };
-    let img = render_pair(&mesh, &mesh, &c, (None, None), &p).unwrap();
+    let img = render_pair(&mesh, &mesh, &c, (None, None), &p, Par::Seq).unwrap();
     assert_eq!((img.width, img.height), (128, 48));
     // The centre of each panel is covered (not the white background), and the two panels are
     // the same picture.
@@ -143,6 +143,6 @@ fn side_by_side_picture_shows_both_shapes() {
     assert_eq!(img.get(32, 24), img.get(96, 24));
     let mut bad = c.clone();
     bad.target.pop();
-    let e = render_pair(&mesh, &mesh, &bad, (None, None), &p).unwrap_err();
+    let e = render_pair(&mesh, &mesh, &bad, (None, None), &p, Par::Seq).unwrap_err();
     assert!(e.to_string().contains("target colours"), "{e}");
 }

@@ -11,8 +11,8 @@ use std::io::BufWriter;
 use std::path::{Path, PathBuf};
 
 use crestflow_flow::{
-    check_range, Ctx, ErrorKind, Inputs, NodeError, NodeKind, Outputs, ParamIssue, Port, Report,
-    Validate,
+    check_range, Ctx, ErrorKind, Inputs, NodeError, NodeKind, Outputs, Par, ParamIssue, Port,
+    Report, Validate,
 };
 use crestflow_geom::vec3::{self, V3};
 use crestflow_geom::{CurvatureField, CurveLabel, FeatureCurveNetwork, MeshDefect, TriMesh};
@@ -179,6 +179,7 @@ pub fn render(
     curves: Option<&FeatureCurveNetwork>,
     curvature: Option<&CurvatureField>,
     params: &RenderParams,
+    par: Par,
 ) -> Result<Rendered, RenderError> {
     let issues = params.validate();
     if !issues.is_empty() {
@@ -276,7 +277,7 @@ pub fn render(
         corner_normals: &corner_normals,
         vertex_colors: &vertex_colors,
     };
-    let (image, stats) = rasterize(&scene, &segments, &camera, &style);
+    let (image, stats) = rasterize(&scene, &segments, &camera, &style, par);
     Ok(Rendered {
         image,
         camera,
@@ -303,6 +304,9 @@ pub fn write_png(image: &RgbImage, path: &Path) -> Result<(), RenderError> {
     let mut enc = ::png::Encoder::new(BufWriter::new(file), image.width, image.height);
     enc.set_color(::png::ColorType::Rgb);
     enc.set_depth(::png::BitDepth::Eight);
+    // fdeflate's PNG-tuned mode: on the shipped graphs' 1024 × 768 renders about 45 ms less
+    // than the default level, for files 1.3-1.9 times larger (90-235 kB).
+    enc.set_compression(::png::Compression::Fast);
     let mut writer = enc.write_header().map_err(png_err)?;
     writer.write_image_data(&image.pixels).map_err(png_err)?;
     writer.finish().map_err(png_err)?;
@@ -401,7 +405,7 @@ impl NodeKind for RenderPngNode {
         let curvature = inputs.opt::<CurvatureField>("curvature")?;
         // Bad data and unwritable paths are both problems the user can act on.
         let to_node = |e: RenderError| NodeError::from_source(ErrorKind::InvalidInput, e);
-        let out = render(mesh, curves, curvature, params).map_err(to_node)?;
+        let out = render(mesh, curves, curvature, params, ctx.par).map_err(to_node)?;
         let path = ctx.resolve(&params.path);
         write_png(&out.image, &path).map_err(to_node)?;
         let mut report = Report::new();

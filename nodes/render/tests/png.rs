@@ -2,6 +2,7 @@
 
 use std::f64::consts::PI;
 
+use crestflow_flow::Par;
 use crestflow_geom::shapes;
 use crestflow_geom::{
     CurvatureField, CurveLabel, FcnVertex, FeatureCurve, FeatureCurveNetwork, SurfacePoint, TriMesh,
@@ -63,7 +64,7 @@ fn sphere_coverage_matches_disc_area() {
             supersample: ss,
             ..front_params()
         };
-        let out = render(&mesh, None, None, &params).unwrap();
+        let out = render(&mesh, None, None, &params, Par::Rayon).unwrap();
         let r_px = out.camera.scale; // radius 1 in world units
         let expected = PI * r_px * r_px;
         let rel = (out.stats.mesh_pixels - expected).abs() / expected;
@@ -90,7 +91,7 @@ fn front_curve_drawn_and_hidden_curve_not() {
     let mesh = unit_sphere();
     let net = front_and_back_circles();
     let p = front_params();
-    let front = render(&mesh, Some(&net), None, &p).unwrap();
+    let front = render(&mesh, Some(&net), None, &p, Par::Rayon).unwrap();
     let ridge_px = count_color(&front.image, p.ridge_color);
     let ravine_px = count_color(&front.image, p.ravine_color);
     // Circle of radius 0.5 (in pixels: 0.5 · scale), 2.5 px wide: roughly 2π · 0.5 · s · 2.5.
@@ -110,6 +111,7 @@ fn front_curve_drawn_and_hidden_curve_not() {
             azimuth: 180.0,
             ..p.clone()
         },
+        Par::Rayon,
     )
     .unwrap();
     assert!(count_color(&back.image, p.ravine_color) as f64 > 0.5 * expected);
@@ -124,6 +126,7 @@ fn front_curve_drawn_and_hidden_curve_not() {
             depth_offset: 0.001,
             ..p.clone()
         },
+        Par::Rayon,
     )
     .unwrap();
     assert!(count_color(&tight.image, p.ridge_color) as f64 > 0.5 * expected);
@@ -151,7 +154,7 @@ fn curvature_colors_the_surface() {
     }
     assert_eq!(k.len(), n);
     let p = front_params();
-    let out = render(&mesh, None, Some(&k), &p).unwrap();
+    let out = render(&mesh, None, Some(&k), &p, Par::Rayon).unwrap();
     let centre = |dy: i64| out.image.get(160, (120 + dy) as u32);
     let (up, down) = (centre(-40), centre(40));
     assert!(up[0] > up[2], "upper half should be warm: {up:?}");
@@ -167,8 +170,8 @@ fn output_is_deterministic_and_png_round_trips() {
         height: 150,
         ..RenderParams::default()
     };
-    let a = render(&mesh, Some(&net), None, &p).unwrap();
-    let b = render(&mesh, Some(&net), None, &p).unwrap();
+    let a = render(&mesh, Some(&net), None, &p, Par::Rayon).unwrap();
+    let b = render(&mesh, Some(&net), None, &p, Par::Rayon).unwrap();
     assert_eq!(a.image, b.image);
 
     let dir = tempfile::tempdir().unwrap();
@@ -191,13 +194,13 @@ fn bad_inputs_give_specific_errors() {
     let p = front_params();
     let empty = TriMesh::new(vec![], vec![]);
     assert!(matches!(
-        render(&empty, None, None, &p),
+        render(&empty, None, None, &p, Par::Rayon),
         Err(RenderError::EmptyMesh)
     ));
 
     let mut mesh = unit_sphere();
     mesh.positions[17][1] = f64::NAN;
-    match render(&mesh, None, None, &p) {
+    match render(&mesh, None, None, &p, Par::Rayon) {
         Err(RenderError::NonFinitePosition { vertex, .. }) => assert_eq!(vertex, 17),
         other => panic!("expected NonFinitePosition, got {other:?}"),
     }
@@ -206,7 +209,7 @@ fn bad_inputs_give_specific_errors() {
         vec![[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
         vec![[0, 1, 2], [0, 2, 5]],
     );
-    match render(&bad, None, None, &p) {
+    match render(&bad, None, None, &p, Par::Rayon) {
         Err(RenderError::FaceIndex {
             face,
             index,
@@ -222,14 +225,14 @@ fn bad_inputs_give_specific_errors() {
         ..Default::default()
     };
     assert!(matches!(
-        render(&mesh, None, Some(&short), &p),
+        render(&mesh, None, Some(&short), &p, Par::Rayon),
         Err(RenderError::FieldSize { field: 3, .. })
     ));
 
     let mut net = front_and_back_circles();
     net.curves[1].vertices.push(999);
     assert!(matches!(
-        render(&mesh, Some(&net), None, &p),
+        render(&mesh, Some(&net), None, &p, Par::Rayon),
         Err(RenderError::CurveIndex {
             curve: 1,
             index: 999,
@@ -238,7 +241,7 @@ fn bad_inputs_give_specific_errors() {
     ));
 
     let dir = tempfile::tempdir().unwrap();
-    let img = render(&mesh, None, None, &p).unwrap().image;
+    let img = render(&mesh, None, None, &p, Par::Rayon).unwrap().image;
     // A file where a folder is needed.
     std::fs::write(dir.path().join("file"), b"x").unwrap();
     assert!(matches!(
@@ -267,7 +270,7 @@ fn params_are_validated() {
     assert!(RenderParams::default().validate().is_empty());
     // The pure function refuses them as well (before allocating anything).
     let mesh = unit_sphere();
-    match render(&mesh, None, None, &p) {
+    match render(&mesh, None, None, &p, Par::Rayon) {
         Err(RenderError::Params(text)) => assert!(
             text.contains("width") && text.contains("supersample"),
             "{text}"

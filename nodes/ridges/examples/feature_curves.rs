@@ -75,7 +75,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         height: num("h", 768.0)? as u32,
         ..RenderParams::default()
     };
-    let img = render(&mesh, Some(&traced.network), Some(&curv.field), &params)?;
+    let img = render(
+        &mesh,
+        Some(&traced.network),
+        Some(&curv.field),
+        &params,
+        Par::Rayon,
+    )?;
     write_png(&img.image, Path::new(&args[1]))?;
     let t_render = t3.elapsed();
 

@@ -10,8 +10,8 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use crestflow_flow::{
-    check_range, Ctx, ErrorKind, Inputs, NodeError, NodeKind, Outputs, ParamIssue, Port, Report,
-    Validate,
+    check_range, Ctx, ErrorKind, Inputs, NodeError, NodeKind, Outputs, Par, ParamIssue, Port,
+    Report, Validate,
 };
 use crestflow_geom::vec3::V3;
 use crestflow_geom::{FeatureCurveNetwork, TriMesh};
@@ -236,6 +236,7 @@ pub fn draw_png(
     net: &FeatureCurveNetwork,
     groups: &[Option<u32>],
     params: &DrawParams,
+    par: Par,
 ) -> Result<crestflow_nodes_render::RgbImage, DrawError> {
     if mesh.n_faces() == 0 {
         return Err(DrawError::Mesh("it has no triangles".into()));
@@ -283,7 +284,7 @@ pub fn draw_png(
         corner_normals: &corner_normals,
         vertex_colors: &colors,
     };
-    Ok(rasterize(&scene, &segments, &camera, &style).0)
+    Ok(rasterize(&scene, &segments, &camera, &style, par).0)
 }
 
 fn write_text(path: &Path, text: &str) -> Result<(), DrawError> {
@@ -375,7 +376,7 @@ impl NodeKind for DrawNode {
                     ColorBy::Orbit => &by_orbit,
                     ColorBy::Cluster => &by_cluster,
                 };
-                let image = draw_png(mesh, net, groups, params).map_err(err)?;
+                let image = draw_png(mesh, net, groups, params, ctx.par).map_err(err)?;
                 let path = ctx.resolve(&params.png);
                 write_png(&image, &path).map_err(|e| {
                     err(DrawError::Io {

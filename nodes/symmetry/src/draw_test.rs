@@ -126,7 +126,7 @@ fn bad_references_are_named() {
     ));
     let empty = TriMesh::new(vec![[0.0; 3]], vec![]);
     assert!(matches!(
-        draw_png(&empty, &net(), &[None; 3], &DrawParams::default()).unwrap_err(),
+        draw_png(&empty, &net(), &[None; 3], &DrawParams::default(), Par::Seq).unwrap_err(),
         DrawError::Mesh(_)
     ));
     assert!(!DrawParams {
@@ -171,7 +171,7 @@ fn png_shows_the_group_colour() {
         line_width: 4.0,
         ..Default::default()
     };
-    let img = draw_png(&mesh, &n, &[Some(1)], &params).unwrap();
+    let img = draw_png(&mesh, &n, &[Some(1)], &params, Par::Seq).unwrap();
     assert_eq!(img.get(32, 32), PALETTE[1]);
     // the surface away from the curve is grey, not the curve colour
     let g = img.get(32, 10);
