@@ -73,6 +73,41 @@ fn spread(x: u64) -> u64 {
     x
 }
 
+/// Indices of `points` sorted along a Morton (Z-order) curve through their bounding box (of
+/// the finite points; a non-finite coordinate counts as the box's low side), ties by index:
+/// consecutive indices are near in space. The same on every run.
+pub fn morton_order(points: &[V3]) -> Vec<u32> {
+    let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+    for c in points.iter().filter(|c| c.iter().all(|x| x.is_finite())) {
+        for k in 0..3 {
+            lo[k] = lo[k].min(c[k]);
+            hi[k] = hi[k].max(c[k]);
+        }
+    }
+    let cells = ((1u64 << BITS) - 1) as f64;
+    let scale: [f64; 3] = std::array::from_fn(|k| {
+        let extent = hi[k] - lo[k];
+        if extent > 0.0 && extent.is_finite() {
+            cells / extent
+        } else {
+            0.0
+        }
+    });
+    // Non-finite points land in cell 0 (`as` saturates, NaN becomes 0).
+    let key = |c: &V3| -> u64 {
+        (0..3)
+            .map(|k| spread(((c[k] - lo[k]) * scale[k]).clamp(0.0, cells) as u64) << k)
+            .fold(0, |a, b| a | b)
+    };
+    let mut order: Vec<(u64, u32)> = points
+        .iter()
+        .enumerate()
+        .map(|(i, c)| (key(c), i as u32))
+        .collect();
+    order.sort_unstable();
+    order.into_iter().map(|(_, i)| i).collect()
+}
+
 /// Median over the faces of the index distance between their first and last corner: how far
 /// apart in memory a face's vertices sit (0 for a mesh without faces).
 pub fn median_corner_spread(mesh: &TriMesh) -> u32 {
@@ -104,38 +139,11 @@ pub fn spatially_ordered(mesh: &TriMesh) -> Option<Reordered> {
         [0, 1, 2].map(|k| (p[0][k] + p[1][k] + p[2][k]) / 3.0)
     };
     let centroids: Vec<V3> = mesh.triangles.iter().map(centroid).collect();
-    let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
-    for c in centroids.iter().filter(|c| c.iter().all(|x| x.is_finite())) {
-        for k in 0..3 {
-            lo[k] = lo[k].min(c[k]);
-            hi[k] = hi[k].max(c[k]);
-        }
-    }
-    let cells = ((1u64 << BITS) - 1) as f64;
-    let scale: [f64; 3] = std::array::from_fn(|k| {
-        let extent = hi[k] - lo[k];
-        if extent > 0.0 && extent.is_finite() {
-            cells / extent
-        } else {
-            0.0
-        }
-    });
-    // Non-finite centroids land in cell 0 (`as` saturates, NaN becomes 0).
-    let key = |c: &V3| -> u64 {
-        (0..3)
-            .map(|k| spread(((c[k] - lo[k]) * scale[k]).clamp(0.0, cells) as u64) << k)
-            .fold(0, |a, b| a | b)
-    };
-    let mut order: Vec<(u64, u32)> = centroids
-        .iter()
-        .enumerate()
-        .map(|(f, c)| (key(c), f as u32))
-        .collect();
-    order.sort_unstable();
+    let order = morton_order(&centroids);
 
     let mut new_vertex = vec![u32::MAX; nv];
     let mut next = 0u32;
-    for &(_, f) in &order {
+    for &f in &order {
         for c in mesh.triangles[f as usize] {
             if new_vertex[c as usize] == u32::MAX {
                 new_vertex[c as usize] = next;
@@ -153,12 +161,12 @@ pub fn spatially_ordered(mesh: &TriMesh) -> Option<Reordered> {
     }
     let triangles = order
         .iter()
-        .map(|&(_, f)| mesh.triangles[f as usize].map(|c| new_vertex[c as usize]))
+        .map(|&f| mesh.triangles[f as usize].map(|c| new_vertex[c as usize]))
         .collect();
     Some(Reordered {
         mesh: TriMesh::new(positions, triangles),
         new_vertex,
-        old_face: order.into_iter().map(|(_, f)| f).collect(),
+        old_face: order,
     })
 }
 

@@ -22,6 +22,7 @@ use crestflow_flow::{
     check_range, Ctx, ErrorKind, Inputs, NodeError, NodeKind, Outputs, Par, ParamIssue, Port,
     Report, Validate,
 };
+use crestflow_geom::locality::morton_order;
 use crestflow_geom::vec3::V3;
 use crestflow_geom::{MeshDefect, TriMesh};
 
@@ -127,8 +128,9 @@ fn unit(z: u64) -> f64 {
     (z >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
 }
 
-/// All vertices of `mesh` followed by `n` area-weighted random points on its faces.
-pub fn sample_surface(mesh: &TriMesh, n: usize, seed: u64) -> Vec<V3> {
+/// All vertices of `mesh` followed by `n` area-weighted random points on its faces. Sample i
+/// depends only on the seed and i, so the points are the same at every thread count.
+pub fn sample_surface(mesh: &TriMesh, n: usize, seed: u64, par: Par) -> Vec<V3> {
     let mut cum = Vec::with_capacity(mesh.n_faces());
     let mut total = 0.0;
     for f in 0..mesh.n_faces() {
@@ -136,12 +138,12 @@ pub fn sample_surface(mesh: &TriMesh, n: usize, seed: u64) -> Vec<V3> {
         cum.push(total);
     }
     let mut out = mesh.positions.clone();
-    out.reserve(n);
     if total <= 0.0 {
         return out;
     }
     let stream = mix(seed);
-    for i in 0..n as u64 {
+    out.extend(par.map_collect(n, |i| {
+        let i = i as u64;
         let r0 = mix(stream ^ mix(3 * i));
         let r1 = mix(stream ^ mix(3 * i + 1));
         let r2 = mix(stream ^ mix(3 * i + 2));
@@ -152,12 +154,12 @@ pub fn sample_surface(mesh: &TriMesh, n: usize, seed: u64) -> Vec<V3> {
         let t = unit(r2);
         let [a, b, c] = mesh.face_points(f);
         let (wa, wb, wc) = (1.0 - s, s * (1.0 - t), s * t);
-        out.push([
+        [
             wa * a[0] + wb * b[0] + wc * c[0],
             wa * a[1] + wb * b[1] + wc * c[1],
             wa * a[2] + wb * b[2] + wc * c[2],
-        ]);
-    }
+        ]
+    }));
     out
 }
 
@@ -173,9 +175,39 @@ pub struct OneSided {
     sum2: f64,
 }
 
+/// Queries per parallel task of [`distances`] (a fixed split: the result does not depend on
+/// it).
+const QUERY_CHUNK: usize = 2048;
+
+/// The distance of every point of `points` to the surface of `bvh`, in point order: exactly
+/// what [`TriangleBvh::closest`] gives each point. The queries run along a Morton curve
+/// through the points, each seeded with the face found for the one before (the hint only
+/// bounds the search; ties still go to the lowest face index), so that the first bound is
+/// already tight (`eval.mesh_distance` of cgal_fandisk against its 1 % remesh, 100k samples
+/// per side: 171–174 ms before, 144–153 ms after, sampling included).
+pub fn distances(points: &[V3], bvh: &TriangleBvh, par: Par) -> Vec<f64> {
+    let order = morton_order(points);
+    let parts = par.map_collect(order.len().div_ceil(QUERY_CHUNK), |c| {
+        let mut hint = u32::MAX;
+        order[c * QUERY_CHUNK..((c + 1) * QUERY_CHUNK).min(order.len())]
+            .iter()
+            .map(|&i| {
+                let hit = bvh.closest_with_hint(points[i as usize], hint);
+                hint = hit.face;
+                hit.distance
+            })
+            .collect::<Vec<f64>>()
+    });
+    let mut d = vec![0.0; points.len()];
+    for (&i, x) in order.iter().zip(parts.into_iter().flatten()) {
+        d[i as usize] = x;
+    }
+    d
+}
+
 /// Distances of `points` to the mesh of `bvh`, reduced in point order.
 pub fn one_sided(points: &[V3], bvh: &TriangleBvh, par: Par) -> OneSided {
-    let d = par.map_collect(points.len(), |i| bvh.closest(points[i]).distance);
+    let d = distances(points, bvh, par);
     let mut max = 0.0f64;
     let mut sum = 0.0;
     let mut sum2 = 0.0;
@@ -216,8 +248,8 @@ pub fn mesh_distance(
     let bvh_b = TriangleBvh::new(b);
     // Different streams for the two meshes: identical meshes must not get identical samples
     // by construction only.
-    let pa = sample_surface(a, params.samples, params.seed);
-    let pb = sample_surface(b, params.samples, params.seed ^ 0x5A5A_5A5A_5A5A_5A5A);
+    let pa = sample_surface(a, params.samples, params.seed, par);
+    let pb = sample_surface(b, params.samples, params.seed ^ 0x5A5A_5A5A_5A5A_5A5A, par);
     let ab = one_sided(&pa, &bvh_b, par);
     let ba = one_sided(&pb, &bvh_a, par);
 

@@ -5,7 +5,7 @@ use crestflow_geom::shapes::{ellipsoid, sphere};
 use crestflow_geom::vec3::{self, V3};
 use crestflow_geom::TriMesh;
 use crestflow_nodes_eval::mesh_distance::{
-    closest_point_on_triangle, mesh_distance, sample_surface, MeshDistanceError,
+    closest_point_on_triangle, distances, mesh_distance, sample_surface, MeshDistanceError,
     MeshDistanceParams, TriangleBvh,
 };
 
@@ -80,11 +80,36 @@ fn point_triangle_distance_matches_dense_sampling() {
 }
 
 #[test]
+fn seeded_queries_in_curve_order_equal_plain_queries_bit_for_bit() {
+    // Several query chunks; the samples of one surface against the other, plus far points
+    // and points on the target itself (distance 0, ties between faces at shared vertices).
+    let target = ellipsoid(1.0, 0.7, 0.5, 3, 0.3, 7).unwrap();
+    let other = ellipsoid(1.1, 0.6, 0.55, 3, 0.3, 11).unwrap();
+    let bvh = TriangleBvh::new(&target);
+    let mut points = sample_surface(&other, 6000, 5, Par::Rayon);
+    points.extend(target.positions.iter().copied());
+    points.push([5.0, -3.0, 2.0]);
+    points.push([0.0, 0.0, 0.0]);
+    assert!(points.len() > 3 * 2048);
+    let want: Vec<u64> = points
+        .iter()
+        .map(|&p| bvh.closest(p).distance.to_bits())
+        .collect();
+    for par in [Par::Seq, Par::Rayon] {
+        let got: Vec<u64> = distances(&points, &bvh, par)
+            .iter()
+            .map(|d| d.to_bits())
+            .collect();
+        assert_eq!(got, want, "{par:?}");
+    }
+}
+
+#[test]
 fn bvh_equals_brute_force() {
     let target = ellipsoid(1.0, 0.7, 0.5, 2, 0.3, 7).unwrap();
     let other = ellipsoid(1.1, 0.6, 0.55, 2, 0.3, 11).unwrap();
     let bvh = TriangleBvh::new(&target);
-    let mut points = sample_surface(&other, 300, 3);
+    let mut points = sample_surface(&other, 300, 3, Par::Seq);
     // Points far away and inside too.
     points.push([5.0, -3.0, 2.0]);
     points.push([0.0, 0.0, 0.0]);
@@ -113,8 +138,8 @@ fn report_matches_brute_force_figures() {
     };
     let r = mesh_distance(&a, &b, &params, Par::Seq).unwrap();
     // Same samples as the node draws (the second mesh uses a derived seed).
-    let pa = sample_surface(&a, 500, 9);
-    let pb = sample_surface(&b, 500, 9 ^ 0x5A5A_5A5A_5A5A_5A5A);
+    let pa = sample_surface(&a, 500, 9, Par::Seq);
+    let pb = sample_surface(&b, 500, 9 ^ 0x5A5A_5A5A_5A5A_5A5A, Par::Rayon);
     let da: Vec<f64> = pa.iter().map(|&p| brute_force(&b, p)).collect();
     let db: Vec<f64> = pb.iter().map(|&p| brute_force(&a, p)).collect();
     let diag = a.bbox_diagonal();
