@@ -115,26 +115,34 @@ pub(crate) fn sorted_sides(n_vertices: usize, triangles: &[[u32; 3]]) -> Vec<(u3
     out
 }
 
+/// The faces at each vertex as compressed rows: the faces of vertex v are
+/// `faces[offsets[v]..offsets[v + 1]]`, in increasing face order (a counting sort of the
+/// corners; a face that repeats a vertex is listed once per corner). Indices must be below
+/// `n_vertices`.
+pub fn vertex_faces_csr(n_vertices: usize, triangles: &[[u32; 3]]) -> (Vec<u32>, Vec<u32>) {
+    let mut offsets = vec![0u32; n_vertices + 1];
+    for t in triangles {
+        for &v in t {
+            offsets[v as usize + 1] += 1;
+        }
+    }
+    for i in 0..n_vertices {
+        offsets[i + 1] += offsets[i];
+    }
+    let mut fill = offsets.clone();
+    let mut faces = vec![0u32; offsets[n_vertices] as usize];
+    for (f, t) in triangles.iter().enumerate() {
+        for &v in t {
+            faces[fill[v as usize] as usize] = f as u32;
+            fill[v as usize] += 1;
+        }
+    }
+    (offsets, faces)
+}
+
 impl Topology {
     fn build(n_vertices: usize, triangles: &[[u32; 3]]) -> Topology {
-        // Vertex -> faces, CSR.
-        let mut vf_offsets = vec![0u32; n_vertices + 1];
-        for t in triangles {
-            for &v in t {
-                vf_offsets[v as usize + 1] += 1;
-            }
-        }
-        for i in 0..n_vertices {
-            vf_offsets[i + 1] += vf_offsets[i];
-        }
-        let mut fill = vf_offsets.clone();
-        let mut vf_faces = vec![0u32; vf_offsets[n_vertices] as usize];
-        for (f, t) in triangles.iter().enumerate() {
-            for &v in t {
-                vf_faces[fill[v as usize] as usize] = f as u32;
-                fill[v as usize] += 1;
-            }
-        }
+        let (vf_offsets, vf_faces) = vertex_faces_csr(n_vertices, triangles);
 
         // Half-edges keyed by (min, max), sorted, give unique edges deterministically.
         let half: Vec<(u32, u32, u32, u8)> = sorted_sides(n_vertices, triangles)

@@ -736,7 +736,7 @@ fn all_face_terms(
 const ROWS_PER_TASK: usize = 4096;
 
 /// Assembles `L` and the lumped mass row by row, without a global sort. Each row visits the
-/// faces at its vertex in face order (a counting sort of the corners) and, within a face, the
+/// faces at its vertex in face order ([`crestflow_geom::mesh::vertex_faces_csr`]) and, within a face, the
 /// corners in order: its off-diagonal entries arrive in the order of the triplets of
 /// [`CsrMatrix::from_triplets`] in face order, are sorted by column (stably, by insertion:
 /// an interior row holds about 12) and summed per column in that order; the diagonal and the
@@ -749,24 +749,9 @@ fn assemble_laplacian_and_mass(
     par: Par,
 ) -> Result<(CsrMatrix, Vec<f64>), OperatorError> {
     let n = mesh.n_vertices();
-    let mut start = vec![0usize; n + 1];
-    for t in &mesh.triangles {
-        for &v in t {
-            start[v as usize + 1] += 1;
-        }
-    }
-    for v in 0..n {
-        start[v + 1] += start[v];
-    }
-    let mut faces_at = vec![0u32; start[n]];
-    let mut next = start[..n].to_vec();
-    for (f, t) in mesh.triangles.iter().enumerate() {
-        for &v in t {
-            faces_at[next[v as usize]] = f as u32;
-            next[v as usize] += 1;
-        }
-    }
-    drop(next);
+    // Built here rather than through `mesh.topology()`, which would also build the edge
+    // table (a mesh from the cache or from another node has none yet).
+    let (start, faces_at) = crestflow_geom::mesh::vertex_faces_csr(n, &mesh.triangles);
     let tasks = n.div_ceil(ROWS_PER_TASK);
     type Part = (Vec<usize>, Vec<usize>, Vec<f64>, Vec<f64>);
     let parts: Vec<Part> = par.map_collect(tasks, |task| {
@@ -779,7 +764,7 @@ fn assemble_laplacian_and_mass(
         for r in rows {
             row.clear();
             let (mut diag, mut m) = (0.0, 0.0);
-            let faces = &faces_at[start[r]..start[r + 1]];
+            let faces = &faces_at[start[r] as usize..start[r + 1] as usize];
             for &f in faces {
                 let t = mesh.triangles[f as usize];
                 let ft = &terms[f as usize];
