@@ -176,6 +176,22 @@ mod tests {
     use crate::shapes::sphere;
 
     #[test]
+    fn morton_order_follows_a_line_and_breaks_ties_by_index() {
+        // Points on a line, listed out of order: the curve visits them along the line.
+        let xs = [5.0, 0.0, 3.0, 9.0, 1.0, 7.0];
+        let points: Vec<V3> = xs.iter().map(|&x| [x, 2.0, -1.0]).collect();
+        assert_eq!(morton_order(&points), vec![1, 4, 2, 0, 5, 3]);
+        // Equal points keep their index order; a NaN point counts as the low corner.
+        let points = vec![
+            [1.0, 1.0, 1.0],
+            [0.0; 3],
+            [1.0, 1.0, 1.0],
+            [f64::NAN, 0.0, 0.0],
+        ];
+        assert_eq!(morton_order(&points), vec![1, 3, 0, 2]);
+    }
+
+    #[test]
     fn spread_puts_bits_three_apart() {
         assert_eq!(spread(0b1011), 0b1_000_001_001);
         assert_eq!(spread(0x1f_ffff), 0x1249_2492_4924_9249);
