@@ -331,7 +331,7 @@ impl HeatSolver {
             .collect();
         let heat_diag: Vec<f64> = mass.iter().zip(&unref).map(|(m, u)| m + u).collect();
         let heat_matrix = l.add_scaled(time, &CsrMatrix::from_diagonal(&heat_diag)?, 1.0)?;
-        let heat = SpdSolver::new(&heat_matrix)?;
+        let heat = SpdSolver::new(&heat_matrix, par)?;
         let boundary: Vec<u32> = (0..n as u32)
             .filter(|&v| mesh.topology().is_boundary_vertex[v as usize])
             .collect();
@@ -339,8 +339,8 @@ impl HeatSolver {
         pin_rows(&mut lp, &pins);
         // The Dirichlet heat matrix and L + diag(unref) have the pattern of M + tL (L's rows
         // hold their diagonal, the unreferenced vertices get one): both reuse its ordering and
-        // symbolic analysis, and their numeric factorisations run side by side (each on one
-        // thread, so the factors do not depend on the thread count).
+        // symbolic analysis, and their numeric factorisations run side by side (the factors
+        // do not depend on the thread count).
         let dirichlet = || -> Result<Option<SpdSolver>, HeatError> {
             if boundary.is_empty() {
                 return Ok(None);
@@ -348,12 +348,12 @@ impl HeatSolver {
             let mut hd = heat_matrix.clone();
             pin_rows(&mut hd, &boundary);
             let mut solver = heat.clone();
-            solver.refactor(&hd)?;
+            solver.refactor(&hd, par)?;
             Ok(Some(solver))
         };
         let poisson = || -> Result<SpdSolver, HeatError> {
             let mut solver = heat.clone();
-            solver.refactor(&lp)?;
+            solver.refactor(&lp, par)?;
             Ok(solver)
         };
         let (heat_dirichlet, poisson) = match par {

@@ -514,12 +514,12 @@ pub fn laplacian_smooth_with(
                             break;
                         }
                         red.fill(&l, &mass, tau);
-                        let s = SpdSolver::new(&red.matrix).map_err(solve_err)?;
+                        let s = SpdSolver::new(&red.matrix, par).map_err(solve_err)?;
                         solver = Some((red, s));
                     }
                     Some((red, s)) if refresh => {
                         red.fill(&l, &mass, tau);
-                        s.refactor(&red.matrix).map_err(solve_err)?;
+                        s.refactor(&red.matrix, par).map_err(solve_err)?;
                     }
                     Some(_) => {}
                 }

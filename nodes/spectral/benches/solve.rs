@@ -55,7 +55,25 @@ fn main() {
     let a = l
         .add_scaled(1.0, &CsrMatrix::from_diagonal(&mass).expect("mass"), 1.0)
         .expect("L + M");
-    let solver = SpdSolver::new(&a).expect("factor");
+    // The factorisation: analysis plus values on the pool, and the values alone (same
+    // pattern) on one thread and on the pool.
+    let mut solver = SpdSolver::new(&a, Par::Rayon).expect("factor");
+    let fastest_of = |runs: usize, f: &mut dyn FnMut()| {
+        (0..runs)
+            .map(|_| {
+                let t = Instant::now();
+                f();
+                t.elapsed().as_secs_f64()
+            })
+            .fold(f64::INFINITY, f64::min)
+    };
+    let t_factor = fastest_of(5, &mut || {
+        solver = SpdSolver::new(&a, Par::Rayon).expect("factor");
+    });
+    let t_numeric_seq = fastest_of(5, &mut || solver.refactor(&a, Par::Seq).expect("refactor"));
+    let t_numeric = fastest_of(5, &mut || {
+        solver.refactor(&a, Par::Rayon).expect("refactor")
+    });
     let n = a.nrows();
     let nnz = solver.factor_nnz() as f64;
     let rhs: Vec<f64> = (0..n)
@@ -64,15 +82,7 @@ fn main() {
     // The fastest run of each width: the solves are bound by memory traffic, and other jobs
     // only add to it. `--only W` times width W alone.
     let timed = |w: usize| only.is_none_or(|o| o == w);
-    let fastest = |runs: usize, solve: &mut dyn FnMut()| {
-        (0..runs)
-            .map(|_| {
-                let t = Instant::now();
-                solve();
-                t.elapsed().as_secs_f64()
-            })
-            .fold(f64::INFINITY, f64::min)
-    };
+    let fastest = fastest_of;
     let mut b = rhs.clone();
     let t1 = timed(1).then(|| {
         fastest(repeats, &mut || {
@@ -125,6 +135,9 @@ fn main() {
     let (four_ms, _) = figures(t4, nnz * 4.0);
     let (four_pool_ms, _) = figures(t4p, nnz * 4.0);
     println!(
-        "{{\"n\": {n}, \"factor_values\": {nnz}, \"one_ms\": {one_ms}, \"one_ns_per_value\": {one_ns}, \"eight_ms\": {eight_ms}, \"eight_ns_per_value_column\": {eight_ns}, \"eight_pool_ms\": {pool_ms}, \"four_ms\": {four_ms}, \"four_pool_ms\": {four_pool_ms}, \"checksum\": {check:.17e}}}"
+        "{{\"n\": {n}, \"factor_values\": {nnz}, \"factor_ms\": {:.3}, \"numeric_one_thread_ms\": {:.3}, \"numeric_pool_ms\": {:.3}, \"one_ms\": {one_ms}, \"one_ns_per_value\": {one_ns}, \"eight_ms\": {eight_ms}, \"eight_ns_per_value_column\": {eight_ns}, \"eight_pool_ms\": {pool_ms}, \"four_ms\": {four_ms}, \"four_pool_ms\": {four_pool_ms}, \"checksum\": {check:.17e}}}",
+        t_factor * 1e3,
+        t_numeric_seq * 1e3,
+        t_numeric * 1e3
     );
 }

@@ -601,7 +601,7 @@ fn eigenbasis_on(
         let mut solver = None;
         let mut inner = params.inner_shift * 4.0 * std::f64::consts::PI * k as f64 / area;
         if k >= 16 && inner > 0.0 && inner.is_finite() {
-            if let Ok(mut s) = SpdSolver::new_indefinite(&shifted(inner)?) {
+            if let Ok(mut s) = SpdSolver::new_indefinite(&shifted(inner)?, par) {
                 // Weyl's law undercounts the low eigenvalues of thin shapes (a camel's legs
                 // and neck): with more than 0.7 k below σ, σ is halved (a numeric
                 // refactorisation: the pattern is the same), twice at most.
@@ -611,7 +611,7 @@ fn eigenbasis_on(
                         break;
                     }
                     inner *= 0.5;
-                    factored = s.refactor(&shifted(inner)?).is_ok();
+                    factored = s.refactor(&shifted(inner)?, par).is_ok();
                     if !factored {
                         break;
                     }
@@ -635,10 +635,10 @@ fn eigenbasis_on(
                 let a = shifted(sigma)?;
                 let s = match solver {
                     Some(mut s) => {
-                        s.refactor(&a)?;
+                        s.refactor(&a, par)?;
                         s
                     }
-                    None => SpdSolver::new(&a)?,
+                    None => SpdSolver::new(&a, par)?,
                 };
                 (
                     run(&s, sigma)?.ok_or(EigenbasisError::Breakdown { step: 0 })?,

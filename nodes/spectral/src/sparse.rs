@@ -8,8 +8,9 @@
 //!   `L_ij = −½ (cot α_ij + cot β_ij)`, `L_ii = −Σ_j L_ij` (Pinkall & Polthier 1993; Meyer,
 //!   Desbrun, Schröder, Barr 2003), and the lumped mass matrix (mixed Voronoi areas of Meyer et
 //!   al. 2003 by default, the same as libigl's `massmatrix` default; barycentric as an option).
-//! - [`SpdSolver`]: a sparse Cholesky factorisation (faer, AMD ordering, supernodal) of a
-//!   symmetric positive definite matrix, whose symbolic analysis is reused by
+//! - [`SpdSolver`]: a sparse Cholesky factorisation (faer's AMD ordering and supernodal
+//!   analysis, a multifrontal numeric factorisation of our own) of a symmetric positive
+//!   definite matrix, whose symbolic analysis is reused by
 //!   [`SpdSolver::refactor`] when only the values change (e.g. `M + t L` for a new `t`); or,
 //!   built by [`SpdSolver::new_indefinite`], an `L D Lᵀ` factorisation of a symmetric
 //!   indefinite one without pivoting, with its inertia.
@@ -44,6 +45,9 @@ use serde::{Deserialize, Serialize};
 
 use crestflow_flow::Par;
 use crestflow_geom::{MeshDefect, TriMesh};
+
+#[path = "multifrontal.rs"]
+mod multifrontal;
 
 /// Largest absolute cotangent a triangle may have to enter the Laplacian (an angle of about
 /// 1e-8 rad); beyond it the triangle is left out of `L` (module docs).
@@ -891,15 +895,21 @@ pub fn lumped_mass(mesh: &TriMesh) -> Result<Vec<f64>, OperatorError> {
 /// matrix (faer; AMD fill-reducing ordering; only the lower triangle of `A` is read), or an
 /// `L D Lᵀ` one of a symmetric indefinite matrix ([`SpdSolver::new_indefinite`]).
 ///
-/// The factorisation itself runs on the calling thread (its result must not depend on the
-/// thread count); [`SpdSolver::solve_many`] solves independent right-hand sides in parallel.
+/// The symbolic analysis (faer's AMD ordering and supernodal structure) runs on the calling
+/// thread. The numeric factorisation is multifrontal (`multifrontal.rs`): under `Par::Rayon`
+/// the independent subtrees of the elimination tree are factorised in parallel, with the
+/// same bits as under `Par::Seq`. [`SpdSolver::solve_many`] solves independent right-hand
+/// sides in parallel.
 /// The value is `Send + Sync`: share it between threads by reference.
 #[derive(Debug, Clone)]
 pub struct SpdSolver {
     n: usize,
     symbolic: Arc<SymbolicCholesky<usize>>,
-    /// How the triangular solves split the elimination tree (from the symbolic analysis).
+    /// How the triangular solves split the elimination tree (from the symbolic analysis);
+    /// its subtrees are also factorised in parallel.
     schedule: Arc<SolveSchedule>,
+    /// Where the entries of `A` go in the multifrontal factorisation (supernodal only).
+    scatter: Option<Arc<multifrontal::Scatter>>,
     factor: Vec<f64>,
     row_ptr: Vec<usize>,
     col_idx: Vec<usize>,
@@ -913,9 +923,9 @@ pub struct SpdSolver {
 
 impl SpdSolver {
     /// Analyses and factorises `a`, which must be square, symmetric and positive definite.
-    pub fn new(a: &CsrMatrix) -> Result<SpdSolver, SparseError> {
+    pub fn new(a: &CsrMatrix, par: Par) -> Result<SpdSolver, SparseError> {
         let mut s = SpdSolver::new_symbolic(a)?;
-        s.numeric(a)?;
+        s.numeric(a, par)?;
         Ok(s)
     }
 
@@ -941,10 +951,18 @@ impl SpdSolver {
         )
         .map_err(|e| SparseError::Factorization(format!("{e:?}")))?;
         let schedule = Arc::new(SolveSchedule::new(&symbolic));
+        // Where A's entries land in the fronts (the pattern's part of the numeric work).
+        let scatter = match (symbolic.raw(), symbolic.perm()) {
+            (SymbolicCholeskyRaw::Supernodal(_), Some(perm)) => {
+                Some(Arc::new(multifrontal::Scatter::new(a, perm.arrays().1)))
+            }
+            _ => None,
+        };
         Ok(SpdSolver {
             n: a.nrows,
             symbolic: Arc::new(symbolic),
             schedule,
+            scatter,
             factor: Vec::new(),
             row_ptr: a.row_ptr.clone(),
             col_idx: a.col_idx.clone(),
@@ -960,10 +978,10 @@ impl SpdSolver {
     /// pivot. Without pivoting a pivot tiny against its column would spoil the solves: meant
     /// for shifted operators whose shift keeps away from an eigenvalue (the eigenbasis
     /// reports the backward errors of what it finds).
-    pub fn new_indefinite(a: &CsrMatrix) -> Result<SpdSolver, SparseError> {
+    pub fn new_indefinite(a: &CsrMatrix, par: Par) -> Result<SpdSolver, SparseError> {
         let mut s = SpdSolver::new_symbolic(a)?;
         s.indefinite = true;
-        s.numeric(a)?;
+        s.numeric(a, par)?;
         Ok(s)
     }
 
@@ -975,24 +993,59 @@ impl SpdSolver {
     /// Factorises new values. When `a` has the pattern of the matrix this solver was built
     /// from, the symbolic analysis (ordering, elimination tree) is reused; otherwise it is
     /// redone.
-    pub fn refactor(&mut self, a: &CsrMatrix) -> Result<(), SparseError> {
+    pub fn refactor(&mut self, a: &CsrMatrix, par: Par) -> Result<(), SparseError> {
         if a.row_ptr == self.row_ptr && a.col_idx == self.col_idx && a.nrows == self.n {
             a.check()?;
-            self.numeric(a)
+            self.numeric(a, par)
         } else {
             *self = if self.indefinite {
-                SpdSolver::new_indefinite(a)?
+                SpdSolver::new_indefinite(a, par)?
             } else {
-                SpdSolver::new(a)?
+                SpdSolver::new(a, par)?
             };
             Ok(())
         }
     }
 
-    /// Factorises new values: `L Lᵀ`, or for an indefinite solver `L D Lᵀ` (faer, no
-    /// pivoting) with each column of `L` then scaled by `|d|^{1/2}` and its diagonal set to
-    /// that, so that the Cholesky solves below apply; the signs of `D` are kept apart.
-    fn numeric(&mut self, a: &CsrMatrix) -> Result<(), SparseError> {
+    /// Factorises new values: `L Lᵀ`, or for an indefinite solver `L D Lᵀ` without pivoting,
+    /// stored as `L |D|^{1/2}` so that the Cholesky solves below apply, with the signs of `D`
+    /// kept apart. Multifrontal on a supernodal analysis (the tiny simplicial ones go to
+    /// faer).
+    fn numeric(&mut self, a: &CsrMatrix, par: Par) -> Result<(), SparseError> {
+        if let (SymbolicCholeskyRaw::Supernodal(sym), Some(scatter)) =
+            (self.symbolic.raw(), self.scatter.as_deref())
+        {
+            let n = self.n;
+            match multifrontal::factorize(
+                sym,
+                &self.schedule,
+                scatter,
+                &a.values,
+                self.indefinite,
+                par,
+            ) {
+                Ok((values, negative)) => {
+                    self.factor = values;
+                    self.negative = negative;
+                    return Ok(());
+                }
+                Err(multifrontal::Failure::Pivot { column, value }) => {
+                    return Err(if self.indefinite {
+                        SparseError::Factorization(format!("pivot {value} at {column} of {n}"))
+                    } else {
+                        SparseError::NotPositiveDefinite { pivot: column, n }
+                    });
+                }
+                // A structure the fronts cannot hold: faer's factorisation below.
+                Err(multifrontal::Failure::Structure) => {}
+            }
+        }
+        self.numeric_faer(a)
+    }
+
+    /// faer's own numeric factorisation (left-looking, one thread), then for `L D Lᵀ` each
+    /// column of `L` scaled by `|d|^{1/2}` and its diagonal set to that.
+    fn numeric_faer(&mut self, a: &CsrMatrix) -> Result<(), SparseError> {
         let view = a.as_faer_transpose()?;
         let fpar = faer::Par::Seq;
         let mut values = vec![0.0; self.symbolic.len_val()];

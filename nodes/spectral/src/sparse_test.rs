@@ -120,7 +120,7 @@ fn spd_solver_solves_refactors_and_reports() {
     let (l, m) = laplacian_and_mass(&mesh, &LaplacianOptions::default(), Par::Seq).unwrap();
     let n = m.len();
     let a = l.add_diagonal(&m).unwrap();
-    let mut solver = SpdSolver::new(&a).unwrap();
+    let mut solver = SpdSolver::new(&a, Par::Seq).unwrap();
     let b: Vec<f64> = (0..n)
         .map(|i| ((i * 7919) % 101) as f64 / 101.0 - 0.5)
         .collect();
@@ -139,7 +139,7 @@ fn spd_solver_solves_refactors_and_reports() {
     let a2 = l
         .add_scaled(1.0, &CsrMatrix::from_diagonal(&m).unwrap(), 10.0)
         .unwrap();
-    solver.refactor(&a2).unwrap();
+    solver.refactor(&a2, Par::Seq).unwrap();
     let mut x2 = b.clone();
     solver.solve_in_place(&mut x2).unwrap();
     assert!(residual(&a2, &x2) < 1e-10);
@@ -177,7 +177,7 @@ fn spd_solver_solves_refactors_and_reports() {
     // −I is not positive definite.
     let neg = CsrMatrix::from_diagonal(&[-1.0, -1.0]).unwrap();
     assert!(matches!(
-        SpdSolver::new(&neg),
+        SpdSolver::new(&neg, Par::Seq),
         Err(SparseError::NotPositiveDefinite { .. })
     ));
 }
@@ -250,7 +250,7 @@ fn indefinite_solver_counts_the_eigenvalues_below_the_shift() {
             let a = l
                 .add_diagonal(&m.iter().map(|x| -sigma * x).collect::<Vec<_>>())
                 .unwrap();
-            let solver = SpdSolver::new_indefinite(&a).unwrap();
+            let solver = SpdSolver::new_indefinite(&a, Par::Seq).unwrap();
             assert_eq!(solver.negative_pivots(), below * spheres, "σ = {sigma}");
             let b: Vec<f64> = (0..n * 5)
                 .map(|i| ((i * 7919) % 101) as f64 / 101.0 - 0.5)
@@ -273,17 +273,23 @@ fn indefinite_solver_counts_the_eigenvalues_below_the_shift() {
     // negative pivot.
     let singular = CsrMatrix::from_diagonal(&[1.0, 0.0, 2.0]).unwrap();
     assert!(matches!(
-        SpdSolver::new_indefinite(&singular),
+        SpdSolver::new_indefinite(&singular, Par::Seq),
         Err(SparseError::Factorization(_))
     ));
-    let mut diag =
-        SpdSolver::new_indefinite(&CsrMatrix::from_diagonal(&[1.0, -2.0, 4.0]).unwrap()).unwrap();
+    let mut diag = SpdSolver::new_indefinite(
+        &CsrMatrix::from_diagonal(&[1.0, -2.0, 4.0]).unwrap(),
+        Par::Seq,
+    )
+    .unwrap();
     assert_eq!(diag.negative_pivots(), 1);
     let mut x = vec![1.0, 1.0, 1.0];
     diag.solve_in_place(&mut x).unwrap();
     assert_eq!(x, [1.0, -0.5, 0.25]);
-    diag.refactor(&CsrMatrix::from_diagonal(&[1.0, 2.0, 4.0]).unwrap())
-        .unwrap();
+    diag.refactor(
+        &CsrMatrix::from_diagonal(&[1.0, 2.0, 4.0]).unwrap(),
+        Par::Seq,
+    )
+    .unwrap();
     assert_eq!(diag.negative_pivots(), 0);
 }
 
@@ -303,7 +309,7 @@ fn split_triangular_solves_are_exact_and_thread_independent() {
         let (l, m) = laplacian_and_mass(&mesh, &LaplacianOptions::default(), Par::Seq).unwrap();
         let n = m.len();
         let a = l.add_diagonal(&m).unwrap();
-        let solver = SpdSolver::new(&a).unwrap();
+        let solver = SpdSolver::new(&a, Par::Seq).unwrap();
         let sched = &solver.schedule;
         // Large enough to be split: several subtrees below a non-empty separator part, the
         // subtrees and the separators covering every supernode once.
@@ -339,13 +345,7 @@ fn split_triangular_solves_are_exact_and_thread_independent() {
             seq, par,
             "one right-hand side: same bits with and without threads"
         );
-        let mut ax = vec![0.0; n];
-        a.mul_vec(&seq, &mut ax, Par::Seq).unwrap();
-        let res = ax
-            .iter()
-            .zip(&b)
-            .map(|(p, q)| (p - q).abs())
-            .fold(0.0, f64::max);
+        let res = max_residual(&a, &seq, &b);
         assert!(res < 1e-10, "residual {res}");
         // Inside a block of three the column has the same bits again.
         let mut block: Vec<f64> = b.iter().chain(&b).chain(&b).map(|v| v * 2.0).collect();
@@ -373,12 +373,7 @@ fn split_triangular_solves_are_exact_and_thread_independent() {
         let mut beside: Vec<f64> = delta.iter().chain(&b).copied().collect();
         solver.solve_many(&mut beside, 2, Par::Seq).unwrap();
         assert_eq!(&beside[..n], &alone[..]);
-        a.mul_vec(&alone, &mut ax, Par::Seq).unwrap();
-        let res = ax
-            .iter()
-            .zip(&delta)
-            .map(|(p, q)| (p - q).abs())
-            .fold(0.0, f64::max);
+        let res = max_residual(&a, &alone, &delta);
         assert!(res < 1e-10, "residual {res}");
         // Positive on the source's sphere (M + L is an M-matrix on an icosphere: no obtuse
         // angles), exactly zero on the other one.
@@ -496,4 +491,184 @@ fn row_assembly_equals_the_triplet_sum_bit_for_bit() {
             assert_eq!(m[u], 0.0);
         }
     }
+}
+
+/// `max |A x − b|`.
+fn max_residual(a: &CsrMatrix, x: &[f64], b: &[f64]) -> f64 {
+    let mut ax = vec![0.0; b.len()];
+    a.mul_vec(x, &mut ax, Par::Seq).unwrap();
+    ax.iter()
+        .zip(b)
+        .map(|(p, q)| (p - q).abs())
+        .fold(0.0, f64::max)
+}
+
+/// The values of a supernodal factor in its lower part (the upper part of each diagonal
+/// block is not read by the solves), with the largest magnitude.
+fn lower_factor_values(solver: &SpdSolver) -> (Vec<f64>, f64) {
+    let SymbolicCholeskyRaw::Supernodal(sym) = solver.symbolic.raw() else {
+        panic!("expected a supernodal factor");
+    };
+    let (begin, end) = (sym.supernode_begin(), sym.supernode_end());
+    let (rptr, vptr) = (sym.col_ptr_for_row_idx(), sym.col_ptr_for_val());
+    let mut out = Vec::new();
+    for s in 0..begin.len() {
+        let nc = end[s] - begin[s];
+        let ld = nc + rptr[s + 1] - rptr[s];
+        for j in 0..nc {
+            out.extend_from_slice(&solver.factor[vptr[s] + j * ld + j..vptr[s] + (j + 1) * ld]);
+        }
+    }
+    let max = out.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    (out, max)
+}
+
+#[test]
+fn multifrontal_factor_matches_faer_and_ignores_the_thread_count() {
+    // The unit sphere's eigenvalues are l(l + 1) with multiplicity 2l + 1: 0, 2 (3), 6 (5),
+    // 12 (7). Two spheres double the counts.
+    for (mesh, spheres) in [(sphere(1.0, 5).unwrap(), 1), (two_spheres(4), 2)] {
+        let (l, m) = laplacian_and_mass(&mesh, &LaplacianOptions::default(), Par::Seq).unwrap();
+        for (sigma, below) in [(-1.0, 0), (4.0, 4), (9.0, 9)] {
+            let a = l
+                .add_diagonal(&m.iter().map(|x| -sigma * x).collect::<Vec<_>>())
+                .unwrap();
+            let mut seq = if sigma < 0.0 {
+                SpdSolver::new(&a, Par::Seq).unwrap()
+            } else {
+                SpdSolver::new_indefinite(&a, Par::Seq).unwrap()
+            };
+            assert!(seq.scatter.is_some(), "the multifrontal path ran");
+            assert!(seq.schedule.subtrees.len() >= 2 || spheres == 2);
+            assert_eq!(seq.negative_pivots(), below * spheres, "σ = {sigma}");
+            let mut pool = seq.clone();
+            pool.refactor(&a, Par::Rayon).unwrap();
+            assert!(
+                pool.factor
+                    .iter()
+                    .zip(&seq.factor)
+                    .all(|(x, y)| x.to_bits() == y.to_bits()),
+                "σ = {sigma}: the pool changed the factor"
+            );
+            assert_eq!(pool.negative, seq.negative);
+            // Against faer's own left-looking factorisation of the same analysis.
+            let mut faer_solver = seq.clone();
+            faer_solver.numeric_faer(&a).unwrap();
+            assert_eq!(faer_solver.negative, seq.negative, "σ = {sigma}");
+            let (ours, max) = lower_factor_values(&seq);
+            let (theirs, _) = lower_factor_values(&faer_solver);
+            let worst = ours
+                .iter()
+                .zip(&theirs)
+                .map(|(x, y)| (x - y).abs())
+                .fold(0.0, f64::max);
+            // Positive definite: the two agree to rounding. Inside the spectrum the pivots
+            // grow (largest entry 30 against 2 at σ = 9) and so do rounding differences; the
+            // solves below bound the backward error instead.
+            let tol = if sigma < 0.0 { 1e-13 } else { 1e-9 };
+            assert!(worst <= tol * max, "σ = {sigma}: {worst:e} of {max:e}");
+            // And the solves of the new factor are exact.
+            let n = m.len();
+            let b: Vec<f64> = (0..n)
+                .map(|i| ((i * 7919) % 101) as f64 / 101.0 - 0.5)
+                .collect();
+            let mut x = b.clone();
+            seq.solve_in_place(&mut x).unwrap();
+            let worst = max_residual(&a, &x, &b);
+            assert!(worst < 1e-10, "σ = {sigma}: residual {worst}");
+            seq.refactor(&a, Par::Seq).unwrap();
+        }
+    }
+}
+
+#[test]
+fn multifrontal_factor_reports_the_failing_pivot() {
+    // A positive definite Laplacian + mass with one vertex's diagonal made very negative:
+    // the positive definite factorisation names a pivot, the indefinite one succeeds.
+    let mesh = sphere(1.0, 5).unwrap();
+    let (l, m) = laplacian_and_mass(&mesh, &LaplacianOptions::default(), Par::Seq).unwrap();
+    let mut d = m.clone();
+    d[77] = -1e6;
+    let a = l.add_diagonal(&d).unwrap();
+    for par in [Par::Seq, Par::Rayon] {
+        match SpdSolver::new(&a, par) {
+            Err(SparseError::NotPositiveDefinite { pivot, n }) => {
+                assert_eq!(n, m.len());
+                assert!(pivot < n);
+            }
+            other => panic!("expected NotPositiveDefinite, got {other:?}"),
+        }
+        // The negative pivot lies in a front of 17 columns and 73 rows below (the blocked
+        // kernel): its sign reaches the update of the rows above it.
+        let s = SpdSolver::new_indefinite(&a, par).unwrap();
+        assert_eq!(s.negative_pivots(), 1);
+        let mut faer_solver = s.clone();
+        faer_solver.numeric_faer(&a).unwrap();
+        let ((ours, max), (theirs, _)) =
+            (lower_factor_values(&s), lower_factor_values(&faer_solver));
+        let worst = ours
+            .iter()
+            .zip(&theirs)
+            .map(|(x, y)| (x - y).abs())
+            .fold(0.0, f64::max);
+        assert!(worst <= 1e-13 * max, "{worst:e} of {max:e}");
+        let b: Vec<f64> = (0..m.len()).map(|i| (i % 7) as f64 - 3.0).collect();
+        let mut x = b.clone();
+        s.solve_in_place(&mut x).unwrap();
+        assert!(max_residual(&a, &x, &b) < 1e-9 * 1e6);
+    }
+    // A pivot that overflows to infinity stops both (NaN cannot reach a CsrMatrix).
+    let mut d = m.clone();
+    d[5000] = f64::MAX;
+    let mut a = l.add_diagonal(&d).unwrap();
+    let (rp, ci) = (a.row_ptr().to_vec(), a.col_idx().to_vec());
+    let at = (rp[5000]..rp[5001]).find(|&e| ci[e] != 5000).unwrap();
+    let j = ci[at];
+    let back = (rp[j]..rp[j + 1]).find(|&e| ci[e] == 5000).unwrap();
+    a.values_mut()[at] = f64::MAX;
+    a.values_mut()[back] = f64::MAX;
+    for par in [Par::Seq, Par::Rayon] {
+        assert!(matches!(
+            SpdSolver::new(&a, par),
+            Err(SparseError::NotPositiveDefinite { .. })
+        ));
+        match SpdSolver::new_indefinite(&a, par) {
+            Err(SparseError::Factorization(msg)) => assert!(msg.contains("pivot"), "{msg}"),
+            other => panic!("expected a pivot error, got {other:?}"),
+        }
+    }
+}
+
+#[test]
+fn negative_pivots_in_small_fronts_update_with_their_sign() {
+    // A chain (tridiagonal) matrix: every front is a few columns wide with a row or two
+    // below, so the negative pivots (every 7th diagonal entry is −2.5) go through the
+    // unblocked kernel.
+    let n = 600;
+    let mut trip = Vec::new();
+    for i in 0..n {
+        trip.push((i, i, if i % 7 == 3 { -2.5 } else { 2.5 }));
+        if i + 1 < n {
+            trip.push((i, i + 1, 1.0));
+            trip.push((i + 1, i, 1.0));
+        }
+    }
+    let a = CsrMatrix::from_triplets(n, n, &trip).unwrap();
+    let s = SpdSolver::new_indefinite(&a, Par::Seq).unwrap();
+    assert!(s.scatter.is_some(), "the multifrontal path ran");
+    let mut faer_solver = s.clone();
+    faer_solver.numeric_faer(&a).unwrap();
+    assert!(s.negative_pivots() > 0);
+    assert_eq!(s.negative, faer_solver.negative);
+    let ((ours, max), (theirs, _)) = (lower_factor_values(&s), lower_factor_values(&faer_solver));
+    let worst = ours
+        .iter()
+        .zip(&theirs)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f64::max);
+    assert!(worst <= 1e-13 * max, "{worst:e} of {max:e}");
+    let b: Vec<f64> = (0..n).map(|i| (i % 5) as f64 - 2.0).collect();
+    let mut x = b.clone();
+    s.solve_in_place(&mut x).unwrap();
+    assert!(max_residual(&a, &x, &b) < 1e-12);
 }
