@@ -50,30 +50,41 @@ impl Scatter {
     pub(super) fn new(a: &CsrMatrix, inv: &[usize]) -> Scatter {
         let n = a.nrows();
         let (rp, ci) = (a.row_ptr(), a.col_idx());
-        let mut count = vec![0usize; n + 1];
-        let mut placed = Vec::with_capacity(a.nnz() / 2 + n);
-        for c in 0..n {
-            for (e, &r) in ci.iter().enumerate().take(rp[c + 1]).skip(rp[c]) {
-                if r < c {
-                    continue;
-                }
+        // Each stored entry a[c][r] with r ≥ c, as (permuted column, permuted row).
+        let lower = |c: usize, e: usize| -> Option<(usize, usize)> {
+            let r = ci[e];
+            (r >= c).then(|| {
                 let (i, j) = (inv[r], inv[c]);
-                let (row, col) = if i >= j { (i, j) } else { (j, i) };
-                count[col + 1] += 1;
-                placed.push((col, row, e));
+                if i >= j {
+                    (j, i)
+                } else {
+                    (i, j)
+                }
+            })
+        };
+        let mut count = vec![0usize; n + 1];
+        for c in 0..n {
+            for e in rp[c]..rp[c + 1] {
+                if let Some((col, _)) = lower(c, e) {
+                    count[col + 1] += 1;
+                }
             }
         }
         for j in 0..n {
             count[j + 1] += count[j];
         }
         let mut next = count.clone();
-        let mut row = vec![0usize; placed.len()];
-        let mut src = vec![0usize; placed.len()];
-        for &(col, r, e) in &placed {
-            let k = next[col];
-            next[col] += 1;
-            row[k] = r;
-            src[k] = e;
+        let mut row = vec![0usize; count[n]];
+        let mut src = vec![0usize; count[n]];
+        for c in 0..n {
+            for e in rp[c]..rp[c + 1] {
+                if let Some((col, r)) = lower(c, e) {
+                    let k = next[col];
+                    next[col] += 1;
+                    row[k] = r;
+                    src[k] = e;
+                }
+            }
         }
         // Rows ascending within each column (few per column: insertion sort).
         for j in 0..n {

@@ -924,13 +924,13 @@ pub struct SpdSolver {
 impl SpdSolver {
     /// Analyses and factorises `a`, which must be square, symmetric and positive definite.
     pub fn new(a: &CsrMatrix, par: Par) -> Result<SpdSolver, SparseError> {
-        let mut s = SpdSolver::new_symbolic(a)?;
+        let mut s = SpdSolver::new_symbolic(a, par)?;
         s.numeric(a, par)?;
         Ok(s)
     }
 
     /// The symbolic analysis of `a` (ordering, elimination tree, solve schedule), no values.
-    fn new_symbolic(a: &CsrMatrix) -> Result<SpdSolver, SparseError> {
+    fn new_symbolic(a: &CsrMatrix, par: Par) -> Result<SpdSolver, SparseError> {
         a.check()?;
         if a.nrows != a.ncols {
             return Err(SparseError::NotSquare {
@@ -950,13 +950,18 @@ impl SpdSolver {
             },
         )
         .map_err(|e| SparseError::Factorization(format!("{e:?}")))?;
-        let schedule = Arc::new(SolveSchedule::new(&symbolic));
-        // Where A's entries land in the fronts (the pattern's part of the numeric work).
-        let scatter = match (symbolic.raw(), symbolic.perm()) {
+        // The solve schedule, and where A's entries land in the fronts (the pattern's part of
+        // the numeric work): independent of each other.
+        let scatter = || match (symbolic.raw(), symbolic.perm()) {
             (SymbolicCholeskyRaw::Supernodal(_), Some(perm)) => {
                 Some(Arc::new(multifrontal::Scatter::new(a, perm.arrays().1)))
             }
             _ => None,
+        };
+        let schedule = || Arc::new(SolveSchedule::new(&symbolic));
+        let (schedule, scatter) = match par {
+            Par::Seq => (schedule(), scatter()),
+            Par::Rayon => rayon::join(schedule, scatter),
         };
         Ok(SpdSolver {
             n: a.nrows,
@@ -979,7 +984,7 @@ impl SpdSolver {
     /// for shifted operators whose shift keeps away from an eigenvalue (the eigenbasis
     /// reports the backward errors of what it finds).
     pub fn new_indefinite(a: &CsrMatrix, par: Par) -> Result<SpdSolver, SparseError> {
-        let mut s = SpdSolver::new_symbolic(a)?;
+        let mut s = SpdSolver::new_symbolic(a, par)?;
         s.indefinite = true;
         s.numeric(a, par)?;
         Ok(s)

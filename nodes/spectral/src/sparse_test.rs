@@ -361,6 +361,24 @@ fn split_triangular_solves_are_exact_and_thread_independent() {
         for col in eight.chunks(n) {
             assert_eq!(col, &seq[..]);
         }
+        // Blocks on the pool, whose separator part is solved in two halves of columns side
+        // by side: every column has the bits of its solve alone.
+        for m in [2usize, 4, 5, 8] {
+            let cols: Vec<Vec<f64>> = (0..m)
+                .map(|j| {
+                    b.iter()
+                        .map(|v| v * (j + 1) as f64 - 0.01 * j as f64)
+                        .collect()
+                })
+                .collect();
+            let mut block: Vec<f64> = cols.concat();
+            solver.solve_many(&mut block, m, Par::Rayon).unwrap();
+            for (j, col) in cols.iter().enumerate() {
+                let mut alone = col.clone();
+                solver.solve_in_place(&mut alone).unwrap();
+                assert_eq!(&block[j * n..(j + 1) * n], &alone[..], "column {j} of {m}");
+            }
+        }
         for (p, q) in twice.iter().zip(&doubled) {
             assert!((p - q).abs() <= 1e-12 * q.abs().max(1.0));
         }
