@@ -10,12 +10,30 @@ ROOT="$PWD"
 OUT="$ROOT/target/bench-spectral"
 mkdir -p "$OUT"
 cargo bench -p crestflow-nodes-spectral --bench eigen --no-run
+# Per k, crestflow and then scipy (each the median of its repeats): the two alternate, so a
+# host that slows down for a few minutes weighs on both sides of a ratio, not on one.
+merge() { # out, inputs...: the JSON objects merged (the per-k entries side by side)
+  "$PYTHON" - "$@" <<'PY'
+import json, sys
+out = {}
+for f in sys.argv[2:]:
+    out.update(json.load(open(f)))
+json.dump(out, open(sys.argv[1], "w"))
+PY
+}
 run_one() { # name, then the crestflow bench arguments
   local name="$1"; shift
-  cargo bench -q -p crestflow-nodes-spectral --bench eigen -- "$@" --ks "$KS" > "$OUT/$name.crestflow.json"
-  local mesh
-  mesh=$("$PYTHON" -c 'import json,sys; print(json.load(open(sys.argv[1]))["mesh"])' "$OUT/$name.crestflow.json")
-  "$PYTHON" bench/spectral/peer_scipy.py "$mesh" --ks "$KS" > "$OUT/$name.scipy.json"
+  local mesh="" k ours=() theirs=()
+  for k in ${KS//,/ }; do
+    cargo bench -q -p crestflow-nodes-spectral --bench eigen -- "$@" --ks "$k" > "$OUT/$name.k$k.crestflow.json"
+    # The torus is written by the first call; later calls read the file it wrote.
+    mesh=$("$PYTHON" -c 'import json,sys; print(json.load(open(sys.argv[1]))["mesh"])' "$OUT/$name.k$k.crestflow.json")
+    if [ "$1" = "--torus" ]; then set -- "$mesh"; fi
+    "$PYTHON" bench/spectral/peer_scipy.py "$mesh" --ks "$k" > "$OUT/$name.k$k.scipy.json"
+    ours+=("$OUT/$name.k$k.crestflow.json"); theirs+=("$OUT/$name.k$k.scipy.json")
+  done
+  merge "$OUT/$name.crestflow.json" "${ours[@]}"
+  merge "$OUT/$name.scipy.json" "${theirs[@]}"
   "$PYTHON" bench/spectral/compare.py "$OUT/$name.crestflow.json" "$OUT/$name.scipy.json"
 }
 run_one bunny "$ROOT/../shared/data/meshes/organic/cgal_bunny00.off"
