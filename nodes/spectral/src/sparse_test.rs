@@ -521,24 +521,33 @@ fn max_residual(a: &CsrMatrix, x: &[f64], b: &[f64]) -> f64 {
         .fold(0.0, f64::max)
 }
 
-/// The values of a supernodal factor in its lower part (the upper part of each diagonal
-/// block is not read by the solves), with the largest magnitude.
-fn lower_factor_values(solver: &SpdSolver) -> (Vec<f64>, f64) {
+/// The solver refactorised by faer's own numeric factorisation, and the largest difference
+/// between the two factors' lower parts (the upper part of each diagonal block is not read by
+/// the solves) with the largest magnitude of ours.
+fn against_faer(solver: &SpdSolver, a: &CsrMatrix) -> (SpdSolver, f64, f64) {
+    let mut faer_solver = solver.clone();
+    faer_solver.numeric_faer(a).unwrap();
     let SymbolicCholeskyRaw::Supernodal(sym) = solver.symbolic.raw() else {
         panic!("expected a supernodal factor");
     };
     let (begin, end) = (sym.supernode_begin(), sym.supernode_end());
     let (rptr, vptr) = (sym.col_ptr_for_row_idx(), sym.col_ptr_for_val());
-    let mut out = Vec::new();
+    let (mut worst, mut max) = (0.0f64, 0.0f64);
     for s in 0..begin.len() {
         let nc = end[s] - begin[s];
         let ld = nc + rptr[s + 1] - rptr[s];
         for j in 0..nc {
-            out.extend_from_slice(&solver.factor[vptr[s] + j * ld + j..vptr[s] + (j + 1) * ld]);
+            let col = vptr[s] + j * ld + j..vptr[s] + (j + 1) * ld;
+            for (x, y) in solver.factor[col.clone()]
+                .iter()
+                .zip(&faer_solver.factor[col])
+            {
+                worst = worst.max((x - y).abs());
+                max = max.max(x.abs());
+            }
         }
     }
-    let max = out.iter().fold(0.0f64, |m, x| m.max(x.abs()));
-    (out, max)
+    (faer_solver, worst, max)
 }
 
 #[test]
@@ -570,16 +579,8 @@ fn multifrontal_factor_matches_faer_and_ignores_the_thread_count() {
             );
             assert_eq!(pool.negative, seq.negative);
             // Against faer's own left-looking factorisation of the same analysis.
-            let mut faer_solver = seq.clone();
-            faer_solver.numeric_faer(&a).unwrap();
+            let (faer_solver, worst, max) = against_faer(&seq, &a);
             assert_eq!(faer_solver.negative, seq.negative, "σ = {sigma}");
-            let (ours, max) = lower_factor_values(&seq);
-            let (theirs, _) = lower_factor_values(&faer_solver);
-            let worst = ours
-                .iter()
-                .zip(&theirs)
-                .map(|(x, y)| (x - y).abs())
-                .fold(0.0, f64::max);
             // Positive definite: the two agree to rounding. Inside the spectrum the pivots
             // grow (largest entry 30 against 2 at σ = 9) and so do rounding differences; the
             // solves below bound the backward error instead.
@@ -620,15 +621,7 @@ fn multifrontal_factor_reports_the_failing_pivot() {
         // kernel): its sign reaches the update of the rows above it.
         let s = SpdSolver::new_indefinite(&a, par).unwrap();
         assert_eq!(s.negative_pivots(), 1);
-        let mut faer_solver = s.clone();
-        faer_solver.numeric_faer(&a).unwrap();
-        let ((ours, max), (theirs, _)) =
-            (lower_factor_values(&s), lower_factor_values(&faer_solver));
-        let worst = ours
-            .iter()
-            .zip(&theirs)
-            .map(|(x, y)| (x - y).abs())
-            .fold(0.0, f64::max);
+        let (_, worst, max) = against_faer(&s, &a);
         assert!(worst <= 1e-13 * max, "{worst:e} of {max:e}");
         let b: Vec<f64> = (0..m.len()).map(|i| (i % 7) as f64 - 3.0).collect();
         let mut x = b.clone();
@@ -674,16 +667,9 @@ fn negative_pivots_in_small_fronts_update_with_their_sign() {
     let a = CsrMatrix::from_triplets(n, n, &trip).unwrap();
     let s = SpdSolver::new_indefinite(&a, Par::Seq).unwrap();
     assert!(s.scatter.is_some(), "the multifrontal path ran");
-    let mut faer_solver = s.clone();
-    faer_solver.numeric_faer(&a).unwrap();
+    let (faer_solver, worst, max) = against_faer(&s, &a);
     assert!(s.negative_pivots() > 0);
     assert_eq!(s.negative, faer_solver.negative);
-    let ((ours, max), (theirs, _)) = (lower_factor_values(&s), lower_factor_values(&faer_solver));
-    let worst = ours
-        .iter()
-        .zip(&theirs)
-        .map(|(x, y)| (x - y).abs())
-        .fold(0.0, f64::max);
     assert!(worst <= 1e-13 * max, "{worst:e} of {max:e}");
     let b: Vec<f64> = (0..n).map(|i| (i % 5) as f64 - 2.0).collect();
     let mut x = b.clone();
