@@ -4,7 +4,7 @@
 //!
 //! Each supernode `s` owns a dense front over its own columns and its pattern rows. The front
 //! gathers the entries of `A` in its columns and the update matrices of its children (the
-//! children in ascending order), factorises its own columns — `L L ᵀ`, or for an indefinite
+//! children in ascending order), factorises its own columns — `L Lᵀ`, or for an indefinite
 //! matrix `L S Lᵀ` with `S = sign(D)` and `L = L_ldl |D|^{1/2}` (an `L D Lᵀ` without
 //! pivoting, in the scaled form the triangular solves read) — and leaves its update matrix
 //! `F₂₂ − L₂₁ S L₂₁ᵀ` for its parent (Duff & Reid 1983; Liu 1992, "The multifrontal method
@@ -180,7 +180,6 @@ pub(super) fn factorize(
         let mut rest: &mut [f64] = &mut values;
         let mut at = 0usize;
         for (first, piece) in &pieces {
-            debug_assert_eq!(lay.vptr[*first], at);
             let last = match piece {
                 Piece::Subtree(k) => sched.subtrees[*k].last,
                 Piece::Top(s) => *s,
@@ -317,7 +316,7 @@ type SubtreeResult = (Vec<f64>, Vec<usize>);
 struct Scratch {
     /// Position of each row of a child's pattern in the parent's front.
     rel: Vec<usize>,
-    /// `L₂₁ S` of a large indefinite front.
+    /// `L₂₁ S` of a large front.
     signed_panel: Vec<f64>,
     /// The signs of the front's pivots.
     signs: Vec<f64>,
