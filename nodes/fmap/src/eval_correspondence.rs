@@ -9,7 +9,9 @@
 //!
 //! Geodesics: one heat-method distance field (Crane et al. 2013, `nodes/geodesic`) per
 //! distinct ground-truth vertex, solved in blocks of right-hand sides on one factorisation;
-//! no n × n matrix is ever formed. `max_queries` evaluates an evenly strided subset.
+//! no n × n matrix is ever formed. `max_queries` evaluates an evenly strided subset. The
+//! fields depend only on the ground truth, so a second map (`compare`, e.g. a baseline) is
+//! measured on the same fields at the cost of a lookup.
 //!
 //! Ground truth: a text file whose line j (0-based, non-empty lines) is the source vertex of
 //! target vertex j (`pyfm_lion2cat.txt` format), or the identity when no file is given.
@@ -41,6 +43,8 @@ pub struct EvalCorrespondenceParams {
     pub max_queries: usize,
     /// Prefix of the report names (default empty).
     pub label: String,
+    /// Prefix of the report names of the optional `compare` map (default "compare").
+    pub compare_label: String,
     /// Heat method time factor m in t = m h² (default 1, range 1e-3..=1e3).
     pub time_factor: f64,
 }
@@ -51,6 +55,7 @@ impl Default for EvalCorrespondenceParams {
             ground_truth: PathBuf::new(),
             max_queries: 0,
             label: String::new(),
+            compare_label: "compare".into(),
             time_factor: 1.0,
         }
     }
@@ -115,19 +120,23 @@ pub fn curve_thresholds() -> Vec<f64> {
     (0..=25).map(|i| i as f64 * 0.01).collect()
 }
 
-/// Normalised geodesic errors per query, with the query target vertices.
+/// Normalised geodesic errors per query of each point map (all of one target size), with
+/// the query target vertices. The distance fields depend only on the ground truth, so every
+/// map is measured on the same fields.
 pub fn geodesic_errors(
     source_mesh: &TriMesh,
-    points: &PointMap,
+    maps: &[&PointMap],
     ground_truth: &[u32],
     max_queries: usize,
     time_factor: f64,
     par: Par,
     cancel: &dyn Fn() -> bool,
-) -> Result<(Vec<usize>, Vec<f64>), FmapError> {
+) -> Result<(Vec<usize>, Vec<Vec<f64>>), FmapError> {
     let n1 = source_mesh.n_vertices();
-    let n2 = points.target_to_source.len();
-    check_point_map(points, n1, n2)?;
+    let n2 = maps.first().map_or(0, |m| m.target_to_source.len());
+    for points in maps {
+        check_point_map(points, n1, n2)?;
+    }
     if ground_truth.len() != n2 {
         return Err(FmapError::GroundTruthSize {
             have: ground_truth.len(),
@@ -151,7 +160,7 @@ pub fn geodesic_errors(
         let s = sources.binary_search(&ground_truth[y]).unwrap_or(0);
         by_source[s].push(qi);
     }
-    let mut errors = vec![0.0; queries.len()];
+    let mut errors = vec![vec![0.0; queries.len()]; maps.len()];
     for (block, chunk) in sources.chunks(HEAT_BLOCK).enumerate() {
         if cancel() {
             return Err(FmapError::Cancelled);
@@ -162,15 +171,17 @@ pub fn geodesic_errors(
             .map_err(|e| FmapError::Heat(e.to_string()))?;
         for (i, f) in fields.iter().enumerate() {
             let s = block * HEAT_BLOCK + i;
-            for &qi in &by_source[s] {
-                let y = queries[qi];
-                let p = points.target_to_source[y] as usize;
-                let d = if p == sources[s] as usize {
-                    0.0
-                } else {
-                    f.values[p].max(0.0)
-                };
-                errors[qi] = d * scale;
+            for (points, errors) in maps.iter().zip(errors.iter_mut()) {
+                for &qi in &by_source[s] {
+                    let y = queries[qi];
+                    let p = points.target_to_source[y] as usize;
+                    let d = if p == sources[s] as usize {
+                        0.0
+                    } else {
+                        f.values[p].max(0.0)
+                    };
+                    errors[qi] = d * scale;
+                }
             }
         }
     }
@@ -228,7 +239,28 @@ pub fn evaluate_correspondence(
     par: Par,
     cancel: &dyn Fn() -> bool,
 ) -> Result<Report, FmapError> {
-    let n2 = points.target_to_source.len();
+    evaluate_correspondences(
+        source_mesh,
+        &[(points, params.label.as_str())],
+        ground_truth,
+        params,
+        par,
+        cancel,
+    )
+}
+
+/// Evaluates several point maps (each with its report label) against one ground truth
+/// (identity when `None`), on one set of distance fields: the report holds the figures of
+/// each map under its label, equal to those of separate evaluations.
+pub fn evaluate_correspondences(
+    source_mesh: &TriMesh,
+    maps: &[(&PointMap, &str)],
+    ground_truth: Option<&[u32]>,
+    params: &EvalCorrespondenceParams,
+    par: Par,
+    cancel: &dyn Fn() -> bool,
+) -> Result<Report, FmapError> {
+    let n2 = maps.first().map_or(0, |(m, _)| m.target_to_source.len());
     let identity: Vec<u32>;
     let gt = match ground_truth {
         Some(g) => g,
@@ -246,20 +278,25 @@ pub fn evaluate_correspondence(
             &identity
         }
     };
+    let points: Vec<&PointMap> = maps.iter().map(|(m, _)| *m).collect();
     let (queries, errors) = geodesic_errors(
         source_mesh,
-        points,
+        &points,
         gt,
         params.max_queries,
         params.time_factor,
         par,
         cancel,
     )?;
-    let exact = queries
-        .iter()
-        .filter(|&&y| points.target_to_source[y] == gt[y])
-        .count();
-    Ok(summarize(&errors, exact, &params.label))
+    let mut report = Report::new();
+    for ((pm, label), errors) in maps.iter().zip(&errors) {
+        let exact = queries
+            .iter()
+            .filter(|&&y| pm.target_to_source[y] == gt[y])
+            .count();
+        report.values.extend(summarize(errors, exact, label).values);
+    }
+    Ok(report)
 }
 
 /// Node wrapper of [`evaluate_correspondence`].
@@ -268,16 +305,21 @@ pub struct EvalCorrespondenceNode;
 impl NodeKind for EvalCorrespondenceNode {
     type Params = EvalCorrespondenceParams;
     const KIND: &'static str = "eval.correspondence";
-    const VERSION: u32 = 1;
+    const VERSION: u32 = 2;
     const DOC: &'static str = "Geodesic error of a point map against a ground-truth map \
         (Princeton protocol: distance on the source mesh by the heat method, normalised by \
-        √area; mean, median, cumulative curve up to 0.25). Values are prefixed by `label.`; a \
-        `previous` report is extended.";
+        √area; mean, median, cumulative curve up to 0.25). Values are prefixed by `label.`; an \
+        optional `compare` map (e.g. a baseline) is measured on the same distance fields, its \
+        values prefixed by `compare_label.`; a `previous` report is extended.";
 
     fn inputs() -> Vec<Port> {
         vec![
             Port::of::<TriMesh>("source_mesh", "the mesh errors are measured on"),
             Port::of::<PointMap>("points", "target vertex → source vertex"),
+            Port::optional::<PointMap>(
+                "compare",
+                "a second point map, measured on the same distance fields",
+            ),
             Port::optional::<Report>("previous", "a report to extend"),
         ]
     }
@@ -303,7 +345,22 @@ impl NodeKind for EvalCorrespondenceNode {
             )
         };
         let cancel = || ctx.cancel.is_cancelled();
-        let mut r = evaluate_correspondence(mesh, pm, gt.as_deref(), params, ctx.par, &cancel)
+        let mut maps = vec![(pm, params.label.as_str())];
+        if let Some(other) = inputs.opt::<PointMap>("compare")? {
+            if params.compare_label == params.label {
+                return Err(FmapError::Param {
+                    field: "compare_label",
+                    message: format!(
+                        "must differ from `label` ({:?}) when a `compare` map is given: the two \
+                         maps' figures would share names",
+                        params.label
+                    ),
+                }
+                .into_node());
+            }
+            maps.push((other, params.compare_label.as_str()));
+        }
+        let mut r = evaluate_correspondences(mesh, &maps, gt.as_deref(), params, ctx.par, &cancel)
             .map_err(FmapError::into_node)?;
         if let Some(prev) = inputs.opt::<Report>("previous")? {
             let mut merged = prev.clone();

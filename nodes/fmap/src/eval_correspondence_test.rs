@@ -156,3 +156,72 @@ fn size_mismatches_are_errors() {
         "{e}"
     );
 }
+
+#[test]
+fn maps_measured_together_get_the_figures_of_separate_evaluations() {
+    // The antipodal map and the one-ring shift, one ground truth (a half-turn about z), on
+    // one set of distance fields.
+    let mesh = sphere(1.0, 3).unwrap();
+    let n = mesh.n_vertices();
+    let topo = mesh.topology();
+    let gt: Vec<u32> = mesh
+        .positions
+        .iter()
+        .map(|&p| nearest_vertex(&mesh, [-p[0], -p[1], p[2]]))
+        .collect();
+    let anti = PointMap {
+        target_to_source: mesh
+            .positions
+            .iter()
+            .map(|&p| nearest_vertex(&mesh, scale(p, -1.0)))
+            .collect(),
+        n_source: n,
+    };
+    let ring = PointMap {
+        target_to_source: gt.iter().map(|&g| topo.neighbors(g)[0]).collect(),
+        n_source: n,
+    };
+    let params = EvalCorrespondenceParams {
+        max_queries: 300,
+        ..Default::default()
+    };
+    let alone = |pm: &PointMap, label: &str| {
+        let p = EvalCorrespondenceParams {
+            label: label.into(),
+            ..params.clone()
+        };
+        evaluate_correspondence(&mesh, pm, Some(&gt), &p, Par::Seq, &|| false).unwrap()
+    };
+    let mut separate = alone(&anti, "anti");
+    separate.values.extend(alone(&ring, "ring").values);
+    let together = evaluate_correspondences(
+        &mesh,
+        &[(&anti, "anti"), (&ring, "ring")],
+        Some(&gt),
+        &params,
+        Par::Rayon,
+        &|| false,
+    )
+    .unwrap();
+    assert_eq!(together, separate);
+    // And the figures differ between the maps (the report is not one map's twice).
+    let (a, r) = (
+        together.num("anti.mean").unwrap(),
+        together.num("ring.mean").unwrap(),
+    );
+    assert!(a > 5.0 * r && r > 0.0, "anti {a}, ring {r}");
+    // Maps of different sizes are an error.
+    let short = PointMap {
+        target_to_source: vec![0; n - 1],
+        n_source: n,
+    };
+    assert!(evaluate_correspondences(
+        &mesh,
+        &[(&anti, "anti"), (&short, "short")],
+        Some(&gt),
+        &params,
+        Par::Seq,
+        &|| false,
+    )
+    .is_err());
+}

@@ -150,8 +150,8 @@ fn cat_pose_to_pose_curves_beat_descriptors() {
         .unwrap(),
         "map",
     );
-    let score = |m: &FunctionalMap, label: &str| -> Report {
-        let pm: PointMap = get(
+    let points = |m: &FunctionalMap| -> PointMap {
+        get(
             &run::<PointMapNode>(
                 &PointMapParams::default(),
                 Inputs::new()
@@ -161,7 +161,10 @@ fn cat_pose_to_pose_curves_beat_descriptors() {
             )
             .unwrap(),
             "points",
-        );
+        )
+    };
+    let score = |m: &FunctionalMap, label: &str| -> Report {
+        let pm = points(m);
         get(
             &run::<EvalCorrespondenceNode>(
                 &EvalCorrespondenceParams {
@@ -186,6 +189,41 @@ fn cat_pose_to_pose_curves_beat_descriptors() {
     eprintln!("cat pose→pose k={k}: curves mean {mc:.4}, descriptor mean {md:.4}");
     assert!(mc < md, "curves {mc} vs descriptor {md}");
     assert!(rc.num("curves.cum_0.25").unwrap() > rd.num("descriptor.cum_0.25").unwrap());
+    // Both maps in one node, the baseline as `compare`: the same figures as the two
+    // evaluations above, from one set of distance fields.
+    let both: Report = get(
+        &run::<EvalCorrespondenceNode>(
+            &EvalCorrespondenceParams {
+                max_queries: 1500,
+                label: "curves".into(),
+                compare_label: "descriptor".into(),
+                ..Default::default()
+            },
+            Inputs::new()
+                .with("source_mesh", m1.clone())
+                .with("points", points(&fm))
+                .with("compare", points(&dm)),
+        )
+        .unwrap(),
+        "report",
+    );
+    let mut separate = rc.clone();
+    separate.values.extend(rd.values.clone());
+    assert_eq!(both, separate);
+    // The two maps under one label is an error naming the parameter.
+    let e = err(run::<EvalCorrespondenceNode>(
+        &EvalCorrespondenceParams {
+            label: "x".into(),
+            compare_label: "x".into(),
+            ..Default::default()
+        },
+        Inputs::new()
+            .with("source_mesh", m1.clone())
+            .with("points", points(&fm))
+            .with("compare", points(&dm)),
+    ));
+    assert_eq!(e.kind, ErrorKind::InvalidInput);
+    assert!(e.message.contains("compare_label"), "{}", e.message);
 }
 
 #[test]
