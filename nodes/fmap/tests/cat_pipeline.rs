@@ -191,37 +191,27 @@ fn cat_pose_to_pose_curves_beat_descriptors() {
     assert!(rc.num("curves.cum_0.25").unwrap() > rd.num("descriptor.cum_0.25").unwrap());
     // Both maps in one node, the baseline as `compare`: the same figures as the two
     // evaluations above, from one set of distance fields.
-    let both: Report = get(
-        &run::<EvalCorrespondenceNode>(
+    let (pf, pd) = (points(&fm), points(&dm));
+    let together = |label: &str, compare_label: &str| {
+        run::<EvalCorrespondenceNode>(
             &EvalCorrespondenceParams {
                 max_queries: 1500,
-                label: "curves".into(),
-                compare_label: "descriptor".into(),
+                label: label.into(),
+                compare_label: compare_label.into(),
                 ..Default::default()
             },
             Inputs::new()
                 .with("source_mesh", m1.clone())
-                .with("points", points(&fm))
-                .with("compare", points(&dm)),
+                .with("points", pf.clone())
+                .with("compare", pd.clone()),
         )
-        .unwrap(),
-        "report",
-    );
+    };
+    let both: Report = get(&together("curves", "descriptor").unwrap(), "report");
     let mut separate = rc.clone();
     separate.values.extend(rd.values.clone());
     assert_eq!(both, separate);
     // The two maps under one label is an error naming the parameter.
-    let e = err(run::<EvalCorrespondenceNode>(
-        &EvalCorrespondenceParams {
-            label: "x".into(),
-            compare_label: "x".into(),
-            ..Default::default()
-        },
-        Inputs::new()
-            .with("source_mesh", m1.clone())
-            .with("points", points(&fm))
-            .with("compare", points(&dm)),
-    ));
+    let e = err(together("x", "x"));
     assert_eq!(e.kind, ErrorKind::InvalidInput);
     assert!(e.message.contains("compare_label"), "{}", e.message);
 }
