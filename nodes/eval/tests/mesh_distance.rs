@@ -79,13 +79,19 @@ fn point_triangle_distance_matches_dense_sampling() {
     }
 }
 
+/// Two jittered ellipsoids of one subdivision level, and the first one's BVH.
+fn two_ellipsoids(level: u32) -> (TriMesh, TriMesh, TriangleBvh) {
+    let target = ellipsoid(1.0, 0.7, 0.5, level, 0.3, 7).unwrap();
+    let other = ellipsoid(1.1, 0.6, 0.55, level, 0.3, 11).unwrap();
+    let bvh = TriangleBvh::new(&target);
+    (target, other, bvh)
+}
+
 #[test]
 fn seeded_queries_in_curve_order_equal_plain_queries_bit_for_bit() {
     // Several query chunks; the samples of one surface against the other, plus far points
     // and points on the target itself (distance 0, ties between faces at shared vertices).
-    let target = ellipsoid(1.0, 0.7, 0.5, 3, 0.3, 7).unwrap();
-    let other = ellipsoid(1.1, 0.6, 0.55, 3, 0.3, 11).unwrap();
-    let bvh = TriangleBvh::new(&target);
+    let (target, other, bvh) = two_ellipsoids(3);
     let mut points = sample_surface(&other, 6000, 5, Par::Rayon);
     points.extend(target.positions.iter().copied());
     points.push([5.0, -3.0, 2.0]);
@@ -106,9 +112,7 @@ fn seeded_queries_in_curve_order_equal_plain_queries_bit_for_bit() {
 
 #[test]
 fn bvh_equals_brute_force() {
-    let target = ellipsoid(1.0, 0.7, 0.5, 2, 0.3, 7).unwrap();
-    let other = ellipsoid(1.1, 0.6, 0.55, 2, 0.3, 11).unwrap();
-    let bvh = TriangleBvh::new(&target);
+    let (target, other, bvh) = two_ellipsoids(2);
     let mut points = sample_surface(&other, 300, 3, Par::Seq);
     // Points far away and inside too.
     points.push([5.0, -3.0, 2.0]);
