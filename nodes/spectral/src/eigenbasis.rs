@@ -879,13 +879,21 @@ fn lanczos(
         }
         // Expand the pending block: W = S V_J = (L − σM)⁻¹ M V_J.
         let j0 = m;
-        for (wc, vc) in w
-            .chunks_exact_mut(n)
-            .zip(v[j0 * n..(j0 + b) * n].chunks_exact(n))
-        {
+        let times_mass = |(wc, vc): (&mut [f64], &[f64])| {
             for ((wi, &vi), &mi) in wc.iter_mut().zip(vc).zip(mass) {
                 *wi = mi * vi;
             }
+        };
+        let pending = &v[j0 * n..(j0 + b) * n];
+        match par {
+            Par::Seq => w
+                .chunks_exact_mut(n)
+                .zip(pending.chunks_exact(n))
+                .for_each(times_mass),
+            Par::Rayon => w
+                .par_chunks_exact_mut(n)
+                .zip(pending.par_chunks_exact(n))
+                .for_each(times_mass),
         }
         solver.solve_many(&mut w, b, par)?;
         *solves += b;

@@ -124,6 +124,7 @@ pub(super) fn factorize(
     a_values: &[f64],
     signed: bool,
     par: Par,
+    simd: bool,
 ) -> Result<(Vec<f64>, Vec<usize>), Failure> {
     // The supernodal structure (no values yet).
     let lay = FactorView {
@@ -237,6 +238,7 @@ pub(super) fn factorize(
             let (below, u) = stack.split_at_mut(len);
             let panel = &mut vals[lay.vptr[s] - base..lay.vptr[s + 1] - base];
             front(
+                simd,
                 &lay,
                 s,
                 scatter,
@@ -290,6 +292,7 @@ pub(super) fn factorize(
             updates.extend(root_update[c].take().unwrap_or_default());
         }
         front(
+            simd,
             &lay,
             s,
             scatter,
@@ -322,12 +325,13 @@ struct Scratch {
     signs: Vec<f64>,
 }
 
+with_avx2_copy! {
 /// Assembles, factorises and updates the front of supernode `s`: `kid_updates` holds the
 /// update matrices of its children `kids` one after the other, `panel` is its block of the
 /// factor (`nf × nc`, column-major, zero on entry), `u` its update matrix (`np × np`, lower
-/// triangle, zero on entry).
+/// triangle, zero on entry). `simd` (first argument of `front`) runs the AVX2 copy.
 #[allow(clippy::too_many_arguments)]
-fn front(
+fn front => front_base / front_avx2(
     lay: &FactorView<'_>,
     s: usize,
     scatter: &Scatter,
@@ -509,6 +513,7 @@ fn front(
         }
     }
     Ok(())
+}
 }
 
 /// Rows `row0..row0 + nrows` of `ncols` columns (stride `ld`) of `src`, each column times its

@@ -33,11 +33,12 @@
 use std::sync::Arc;
 
 use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::perm::PermRef;
 use faer::sparse::linalg::cholesky::{
     factorize_symbolic_cholesky, CholeskySymbolicParams, LdltRef, LltRef, SymbolicCholesky,
     SymbolicCholeskyRaw, SymmetricOrdering,
 };
-use faer::sparse::linalg::SupernodalThreshold;
+use faer::sparse::linalg::{amd, SupernodalThreshold};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, MatMut, Side};
 use rayon::prelude::*;
@@ -45,6 +46,51 @@ use serde::{Deserialize, Serialize};
 
 use crestflow_flow::Par;
 use crestflow_geom::{MeshDefect, TriMesh};
+
+/// Defines a function twice from one body: as written (`$name`), and on x86-64 compiled for
+/// AVX2 (`$avx2`; closures inside inherit the feature). The default target is SSE2 only, where
+/// the interleaved right-hand sides and front updates run two lanes wide; AVX2 runs four. Rust
+/// never fuses or reorders floating-point operations, so both copies give the same bits (a
+/// test compares them). Callers choose with [`avx2`]; the form `fn name => base / avx2(...)`
+/// (free functions) also defines `name(simd, ...)`, which runs the AVX2 copy when `simd`.
+macro_rules! with_avx2_copy {
+    ($(#[$attr:meta])* fn $name:ident => $base:ident / $avx2:ident ($($arg:ident : $ty:ty),* $(,)?) -> $ret:ty $body:block) => {
+        $(#[$attr])*
+        fn $name(simd: bool, $($arg: $ty),*) -> $ret {
+            #[cfg(target_arch = "x86_64")]
+            if simd {
+                // SAFETY: callers set `simd` only where the processor has AVX2.
+                return unsafe { $avx2($($arg),*) };
+            }
+            let _ = simd;
+            $base($($arg),*)
+        }
+
+        with_avx2_copy! { $(#[$attr])* fn $base / $avx2 ($($arg: $ty),*) -> $ret $body }
+    };
+    ($(#[$attr:meta])* fn $name:ident / $avx2:ident $(<const $g:ident : $gt:ty>)? ($($args:tt)*) $(-> $ret:ty)? $body:block) => {
+        $(#[$attr])*
+        fn $name $(<const $g: $gt>)? ($($args)*) $(-> $ret)? $body
+
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = "avx2")]
+        $(#[$attr])*
+        fn $avx2 $(<const $g: $gt>)? ($($args)*) $(-> $ret)? $body
+    };
+}
+
+/// Whether this processor runs the AVX2 copies of [`with_avx2_copy`] (the standard library
+/// caches the answer).
+fn avx2() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx2")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
 
 #[path = "multifrontal.rs"]
 mod multifrontal;
@@ -939,30 +985,55 @@ impl SpdSolver {
             });
         }
         let view = a.as_faer_transpose()?;
-        let symbolic = factorize_symbolic_cholesky(
+        // faer's AMD ordering, computed here rather than inside faer's analysis so that where
+        // A's entries land in the fronts (which needs the ordering only) is worked out while
+        // faer computes the supernodes; the analysis is the one faer makes with its AMD.
+        let n = a.nrows;
+        let (mut fwd, mut inv) = (vec![0usize; n], vec![0usize; n]);
+        let mut mem = MemBuffer::new(amd::order_maybe_unsorted_scratch::<usize>(
+            n,
+            a.col_idx.len(),
+        ));
+        let flops = amd::order_maybe_unsorted(
+            &mut fwd,
+            &mut inv,
             view.symbolic(),
-            Side::Lower,
-            SymmetricOrdering::Amd,
-            // Supernodal always: the triangular solves below walk its dense column panels.
-            CholeskySymbolicParams {
-                supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
-                ..Default::default()
-            },
+            amd::Control::default(),
+            MemStack::new(&mut mem),
         )
         .map_err(|e| SparseError::Factorization(format!("{e:?}")))?;
-        // The solve schedule, and where A's entries land in the fronts (the pattern's part of
-        // the numeric work): independent of each other.
-        let scatter = || match (symbolic.raw(), symbolic.perm()) {
-            (SymbolicCholeskyRaw::Supernodal(_), Some(perm)) => {
-                Some(Arc::new(multifrontal::Scatter::new(a, perm.arrays().1)))
-            }
-            _ => None,
+        drop(mem);
+        // faer picks its simplicial layout when AMD counts no elimination work at all (a
+        // diagonal matrix); handing it the ordering would not tell it that, so such a matrix
+        // goes through faer's own ordering as before.
+        let ordering = if flops.n_div + flops.n_mult_subs_ldl > 0.0 {
+            SymmetricOrdering::Custom(PermRef::new_checked(&fwd, &inv, n))
+        } else {
+            SymmetricOrdering::Amd
         };
-        let schedule = || Arc::new(SolveSchedule::new(&symbolic));
-        let (schedule, scatter) = match par {
-            Par::Seq => (schedule(), scatter()),
-            Par::Rayon => rayon::join(schedule, scatter),
+        let analyse = || {
+            factorize_symbolic_cholesky(
+                view.symbolic(),
+                Side::Lower,
+                ordering,
+                // Supernodal always: the triangular solves below walk its dense column panels.
+                CholeskySymbolicParams {
+                    supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
+                    ..Default::default()
+                },
+            )
+            .map_err(|e| SparseError::Factorization(format!("{e:?}")))
         };
+        let scatter = || Arc::new(multifrontal::Scatter::new(a, &inv));
+        let (symbolic, scatter) = match par {
+            Par::Seq => (analyse(), scatter()),
+            Par::Rayon => rayon::join(analyse, scatter),
+        };
+        let symbolic = symbolic?;
+        // (faer keeps the simplicial layout for degenerate sizes only: no fronts there.)
+        let scatter =
+            matches!(symbolic.raw(), SymbolicCholeskyRaw::Supernodal(_)).then_some(scatter);
+        let schedule = Arc::new(SolveSchedule::new(&symbolic));
         Ok(SpdSolver {
             n: a.nrows,
             symbolic: Arc::new(symbolic),
@@ -1028,6 +1099,7 @@ impl SpdSolver {
                 &a.values,
                 self.indefinite,
                 par,
+                avx2(),
             ) {
                 Ok((values, negative)) => {
                     self.factor = values;
@@ -1180,6 +1252,17 @@ impl SpdSolver {
     /// [`SolveSchedule`] are fixed by the matrix, and their contributions to the rows above
     /// them are added in subtree order.
     fn solve_block_w<const W: usize>(&self, b: &mut [f64], m: usize, par: Par) {
+        #[cfg(target_arch = "x86_64")]
+        if avx2() {
+            // SAFETY: the processor has AVX2 (checked just above).
+            return unsafe { self.solve_block_w_avx2::<W>(b, m, par) };
+        }
+        self.solve_block_w_base::<W>(b, m, par)
+    }
+
+    with_avx2_copy! {
+    /// The body of [`SpdSolver::solve_block_w`].
+    fn solve_block_w_base / solve_block_w_avx2<const W: usize>(&self, b: &mut [f64], m: usize, par: Par) {
         let n = self.n;
         let SymbolicCholeskyRaw::Supernodal(sym) = self.symbolic.raw() else {
             // faer chose the simplicial layout (it does so only for degenerate sizes): its own
@@ -1206,13 +1289,21 @@ impl SpdSolver {
             }
             None => (None, None),
         };
+        // Into the factor's order, interleaved (on the pool in row pieces: a tenth of a
+        // four-column solve on one thread).
         let mut x = vec![[0.0f64; W]; n];
-        for j in 0..m {
-            let col = &b[j * n..(j + 1) * n];
-            match fwd {
-                Some(f) => x.iter_mut().zip(f).for_each(|(xi, &fi)| xi[j] = col[fi]),
-                None => x.iter_mut().zip(col).for_each(|(xi, &c)| xi[j] = c),
+        let gather = |(piece, xs): (usize, &mut [[f64; W]])| {
+            let r0 = piece * PERMUTE_PIECE;
+            for (k, xi) in xs.iter_mut().enumerate() {
+                let src = fwd.map_or(r0 + k, |f| f[r0 + k]);
+                for (j, v) in xi.iter_mut().enumerate().take(m) {
+                    *v = b[j * n + src];
+                }
             }
+        };
+        match par {
+            Par::Seq => x.chunks_mut(PERMUTE_PIECE).enumerate().for_each(gather),
+            Par::Rayon => x.par_chunks_mut(PERMUTE_PIECE).enumerate().for_each(gather),
         }
         let f = FactorView {
             begin: sym.supernode_begin(),
@@ -1340,13 +1431,15 @@ impl SpdSolver {
                 jobs.collect::<Vec<_>>().into_par_iter().for_each(run);
             }
         }
-        for j in 0..m {
-            let col = &mut b[j * n..(j + 1) * n];
-            match inv {
-                Some(iv) => col.iter_mut().zip(iv).for_each(|(c, &ii)| *c = x[ii][j]),
-                None => col.iter_mut().zip(&x).for_each(|(c, xi)| *c = xi[j]),
-            }
+        let scatter = |(j, col): (usize, &mut [f64])| match inv {
+            Some(iv) => col.iter_mut().zip(iv).for_each(|(c, &ii)| *c = x[ii][j]),
+            None => col.iter_mut().zip(&x).for_each(|(c, xi)| *c = xi[j]),
+        };
+        match par {
+            Par::Seq => b.chunks_mut(n).take(m).enumerate().for_each(scatter),
+            Par::Rayon => b.par_chunks_mut(n).take(m).enumerate().for_each(scatter),
         }
+    }
     }
 
     /// Overwrites `b` with `A⁻¹ b`.
@@ -1464,7 +1557,28 @@ impl FactorView<'_> {
         let ld = nc + np;
         let vals = &self.values[self.vptr[s]..self.vptr[s + 1]];
         if W >= 4 {
-            for i in 0..np {
+            // Rows in groups of R: R · W / 4 independent accumulator chains instead of one
+            // (each sum is a chain of dependent additions, so a single row waits on the adder's
+            // latency), and the R factor values of a column are adjacent. Each row's sum
+            // still runs over the columns in order: the same bits.
+            const R: usize = 8;
+            let mut i = 0;
+            while i + R <= np {
+                let mut acc = [[0.0f64; W]; R];
+                for (jj, xj) in xd.iter().enumerate() {
+                    let l = &vals[jj * ld + nc + i..jj * ld + nc + i + R];
+                    for r in 0..R {
+                        for w in 0..W {
+                            acc[r][w] += l[r] * xj[w];
+                        }
+                    }
+                }
+                for (r, a) in acc.iter().enumerate() {
+                    sink(i + r, a);
+                }
+                i += R;
+            }
+            for i in i..np {
                 let mut acc = [0.0f64; W];
                 for (jj, xj) in xd.iter().enumerate() {
                     let l = vals[jj * ld + nc + i];
@@ -1511,6 +1625,9 @@ impl FactorView<'_> {
         }
     }
 }
+
+/// Rows per task of the permutations around the triangular solves.
+const PERMUTE_PIECE: usize = 4096;
 
 /// Factor values below which the triangular solves stay in one piece (splitting costs more
 /// than it saves on small factors).
@@ -1751,7 +1868,7 @@ impl SolveSchedule {
 
 /// `Σ_t l[t] · x[t]` per right-hand side, summed in four interleaved partial sums (a fixed
 /// order, so the bits do not depend on `W`).
-#[inline]
+#[inline(always)]
 fn dot_w<const W: usize>(l: &[f64], x: &[[f64; W]]) -> [f64; W] {
     let mut acc = [[0.0f64; W]; 4];
     let mut lc = l.chunks_exact(4);

@@ -676,3 +676,83 @@ fn negative_pivots_in_small_fronts_update_with_their_sign() {
     s.solve_in_place(&mut x).unwrap();
     assert!(max_residual(&a, &x, &b) < 1e-12);
 }
+
+/// Same bits from a solve's plain and AVX2 copies (`with_avx2_copy`).
+fn same_bits(x: &[f64], y: &[f64]) -> bool {
+    x.len() == y.len() && x.iter().zip(y).all(|(p, q)| p.to_bits() == q.to_bits())
+}
+
+#[test]
+fn avx2_copies_give_the_bits_of_the_plain_code() {
+    if !avx2() {
+        eprintln!("this processor has no AVX2: only the plain code runs here");
+        return;
+    }
+    let mesh = sphere(1.0, 5).unwrap();
+    let (l, m) = laplacian_and_mass(&mesh, &LaplacianOptions::default(), Par::Seq).unwrap();
+    let n = m.len();
+    // Below the spectrum (L Lᵀ) and inside it (L S Lᵀ, nine negative pivots).
+    for sigma in [-1.0, 9.0] {
+        let a = l
+            .add_diagonal(&m.iter().map(|x| -sigma * x).collect::<Vec<_>>())
+            .unwrap();
+        let s = if sigma < 0.0 {
+            SpdSolver::new(&a, Par::Seq).unwrap()
+        } else {
+            SpdSolver::new_indefinite(&a, Par::Seq).unwrap()
+        };
+        let SymbolicCholeskyRaw::Supernodal(sym) = s.symbolic.raw() else {
+            panic!("expected a supernodal factor");
+        };
+        let scatter = s.scatter.as_deref().unwrap();
+        let factor = |simd: bool| {
+            multifrontal::factorize(
+                sym,
+                &s.schedule,
+                scatter,
+                &a.values,
+                s.indefinite,
+                Par::Seq,
+                simd,
+            )
+            .unwrap()
+        };
+        let (plain, simd) = (factor(false), factor(true));
+        assert!(same_bits(&plain.0, &simd.0), "σ = {sigma}: factor");
+        assert_eq!(plain.1, simd.1, "σ = {sigma}: negative pivots");
+        assert_eq!(plain.1.len(), if sigma < 0.0 { 0 } else { 9 });
+        // The solves at every width, on one thread and over the subtrees.
+        assert!(s.schedule.subtrees.len() >= 2);
+        let rhs: Vec<f64> = (0..8 * n)
+            .map(|i| ((i * 7919) % 1009) as f64 / 1009.0 - 0.5)
+            .collect();
+        for par in [Par::Seq, Par::Rayon] {
+            for cols in [1usize, 2, 3, 4, 8] {
+                let mut x = rhs[..cols * n].to_vec();
+                let mut y = x.clone();
+                match cols {
+                    1 => {
+                        s.solve_block_w_base::<1>(&mut x, cols, par);
+                        unsafe { s.solve_block_w_avx2::<1>(&mut y, cols, par) };
+                    }
+                    2 => {
+                        s.solve_block_w_base::<2>(&mut x, cols, par);
+                        unsafe { s.solve_block_w_avx2::<2>(&mut y, cols, par) };
+                    }
+                    3 | 4 => {
+                        s.solve_block_w_base::<4>(&mut x, cols, par);
+                        unsafe { s.solve_block_w_avx2::<4>(&mut y, cols, par) };
+                    }
+                    _ => {
+                        s.solve_block_w_base::<8>(&mut x, cols, par);
+                        unsafe { s.solve_block_w_avx2::<8>(&mut y, cols, par) };
+                    }
+                }
+                assert!(same_bits(&x, &y), "σ = {sigma}, {cols} columns, {par:?}");
+                // And they solve the system.
+                let worst = max_residual(&a, &x[..n], &rhs[..n]);
+                assert!(worst < 1e-10, "σ = {sigma}: residual {worst}");
+            }
+        }
+    }
+}
