@@ -202,6 +202,30 @@ pub(super) fn factorize(
         }
     }
 
+    // Supernode `s`'s front, given its children's update matrices, its panel and its own
+    // update matrix.
+    let front_of = |s: usize,
+                    updates: &[f64],
+                    panel: &mut [f64],
+                    u: &mut [f64],
+                    negative: &mut Vec<usize>,
+                    scratch: &mut Scratch| {
+        front(
+            simd,
+            &lay,
+            s,
+            scatter,
+            a_values,
+            kids(s),
+            updates,
+            panel,
+            u,
+            signed,
+            negative,
+            scratch,
+        )
+    };
+
     // The subtrees: each returns its root's update matrix and its negative pivots.
     let run_subtree = |k: usize, vals: &mut [f64]| -> Result<SubtreeResult, Failure> {
         let t = &sched.subtrees[k];
@@ -237,20 +261,7 @@ pub(super) fn factorize(
             stack.resize(len + np * np, 0.0);
             let (below, u) = stack.split_at_mut(len);
             let panel = &mut vals[lay.vptr[s] - base..lay.vptr[s + 1] - base];
-            front(
-                simd,
-                &lay,
-                s,
-                scatter,
-                a_values,
-                kids(s),
-                &below[from..],
-                panel,
-                u,
-                signed,
-                &mut negative,
-                &mut scratch,
-            )?;
+            front_of(s, &below[from..], panel, u, &mut negative, &mut scratch)?;
             stack.copy_within(len.., from);
             stack.truncate(from + np * np);
             tops.truncate(first_kid);
@@ -291,20 +302,7 @@ pub(super) fn factorize(
         for &c in kids(s) {
             updates.extend(root_update[c].take().unwrap_or_default());
         }
-        front(
-            simd,
-            &lay,
-            s,
-            scatter,
-            a_values,
-            kids(s),
-            &updates,
-            panel,
-            &mut u,
-            signed,
-            &mut negative,
-            &mut scratch,
-        )?;
+        front_of(s, &updates, panel, &mut u, &mut negative, &mut scratch)?;
         root_update[s] = Some(u);
     }
     negative.sort_unstable();

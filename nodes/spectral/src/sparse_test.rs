@@ -682,6 +682,7 @@ fn same_bits(x: &[f64], y: &[f64]) -> bool {
     x.len() == y.len() && x.iter().zip(y).all(|(p, q)| p.to_bits() == q.to_bits())
 }
 
+#[cfg(target_arch = "x86_64")]
 #[test]
 fn avx2_copies_give_the_bits_of_the_plain_code() {
     if !avx2() {
