@@ -28,7 +28,8 @@
 //! Determinism: assembly sums contributions in face order; the triangular solves give each
 //! right-hand side the same operations whatever columns it is solved with; products split
 //! work in fixed-size pieces that do not depend on the thread count, so `Par::Seq` and
-//! `Par::Rayon` give the same bits.
+//! `Par::Rayon` give the same bits. The solves and the fronts run an AVX2 copy of their code
+//! where the processor has AVX2 (`with_avx2_copy!`), with the bits of the plain copy.
 
 use std::sync::Arc;
 
@@ -1539,9 +1540,10 @@ impl FactorView<'_> {
 
     /// Hands `sink(i, p)` what pattern row `i` of supernode `s` must subtract in the forward
     /// solve, `p = Σ_j L[i, j] x_j` summed in column order (`xd` holds the supernode's solved
-    /// rows), for every pattern row in order. With four or more right-hand sides row by row,
-    /// the sum in registers (the whole solve of eight columns on the bunny's factor took
-    /// 7.8–8.0 ms instead of 9.3 ms updating every row once per column); with one or two
+    /// rows), for every pattern row in order. With four or more right-hand sides eight rows
+    /// at a time, the sums in registers (the whole solve of eight columns on the bunny's
+    /// factor took 7.8–8.0 ms instead of 9.3 ms updating every row once per column, when it
+    /// still went one row at a time); with one or two
     /// column by column into `tmp` (at least the pattern's length), where the rows of one
     /// column vectorise instead.
     #[inline(always)]
