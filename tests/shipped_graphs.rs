@@ -31,6 +31,7 @@ fn every_shipped_graph_validates() {
         "smooth.ron",
         "remesh.ron",
         "scale-remesh.ron",
+        "scale-remesh-cad.ron",
         "curve-matching.ron",
         "fmap-cat-lion.ron",
     ] {

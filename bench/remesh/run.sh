@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Isotropic remeshing against pymeshlab, gpytoolbox and CGAL on the same meshes in the same run,
 # at 1 % and 2 % of the bounding-box diagonal (10 rounds, edges sharper than 30° kept), ours with
-# default parameters and with feature_grading = $GRADING (default 0.3). Run from
+# default parameters, with feature_grading = $GRADING (default 0.3), and constrained by the
+# scale-conforming subset of the sharp edges instead of all of them. Run from
 # the repository root:
 #
 #   python3 -m venv ../venv-peers && ../venv-peers/bin/pip install numpy scipy pymeshlab gpytoolbox cgal
@@ -37,6 +38,13 @@ GRADING=${GRADING:-0.3}
 if [ "$GRADING" != "0" ]; then
     cargo bench -q -p crestflow-nodes-remesh --bench remesh -- "$OUT" "${ABS[@]}" --targets "$TARGETS" \
         --feature-grading "$GRADING" | tee -a "$OUT/ours.jsonl"
+fi
+# The scale-conforming features instead of every sharp edge (method crestflow_conforming):
+# sharp edges pruned at the target, scale.conform at r_min = target, then the remeshing.
+# CONFORMING=0 skips it.
+if [ "${CONFORMING:-1}" != "0" ]; then
+    cargo bench -q -p crestflow-nodes-remesh --bench remesh -- "$OUT" "${ABS[@]}" --targets "$TARGETS" \
+        --conforming | tee -a "$OUT/ours.jsonl"
 fi
 : > "$OUT/results.jsonl"
 for m in "${ABS[@]}"; do

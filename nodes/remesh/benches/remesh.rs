@@ -2,7 +2,12 @@
 //!
 //!   cargo bench -p crestflow-nodes-remesh --bench remesh -- OUT_DIR MESH... [--targets 1,2]
 //!       [--feature-tolerance 0.002] [--iterations 10] [--smoothing-steps 5]
-//!       [--feature-grading 0]
+//!       [--feature-grading 0] [--conforming]
+//!
+//! With `--conforming` (method `crestflow_conforming`) the features are not every sharp edge
+//! but the scale-conforming subset of them: `remesh.sharp_edges` pruned at the target,
+//! `scale.conform` at r_min = the target, then `remesh.isotropic` constrained by that network
+//! only (its own sharp-edge detection off); the times cover all three steps.
 //!
 //! For each mesh and target (percent of the bounding-box diagonal): the median of 3 runs of
 //! `remesh.isotropic` (default parameters: 10 rounds, sharp edges > 30° kept) at 1 thread
@@ -13,7 +18,8 @@ use std::time::Instant;
 
 use crestflow_flow::{Par, ReportValue};
 use crestflow_geom::io::{load_mesh, save_mesh_obj, LoadOptions};
-use crestflow_nodes_remesh::{isotropic, IsotropicParams};
+use crestflow_nodes_remesh::{isotropic, sharp_edges, IsotropicParams, SharpEdgesParams};
+use crestflow_nodes_scale::{conform, ConformParams};
 
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
@@ -48,6 +54,8 @@ fn main() {
         args.drain(i..(i + 2).min(args.len()));
     }
     let mut smoothing_steps = IsotropicParams::default().smoothing_steps;
+    let conforming = args.iter().any(|a| a == "--conforming");
+    args.retain(|a| a != "--conforming");
     if let Some(i) = args.iter().position(|a| a == "--smoothing-steps") {
         if let Some(t) = args.get(i + 1).and_then(|t| t.parse().ok()) {
             smoothing_steps = t;
@@ -91,6 +99,15 @@ fn main() {
                 iterations,
                 smoothing_steps,
                 feature_grading,
+                sharp_edges: !conforming,
+                ..Default::default()
+            };
+            let sharp_params = SharpEdgesParams {
+                prune_scale: pct / 100.0,
+                ..Default::default()
+            };
+            let conform_params = ConformParams {
+                scale: pct / 100.0,
                 ..Default::default()
             };
             let mut times = Vec::new();
@@ -99,7 +116,20 @@ fn main() {
                 let mut runs = Vec::new();
                 for _ in 0..3 {
                     let t = Instant::now();
-                    let r = isotropic(&mesh, None, &params, par);
+                    let r = if conforming {
+                        sharp_edges(&mesh, &sharp_params)
+                            .map_err(|e| e.to_string())
+                            .and_then(|s| {
+                                conform(&s.network, &mesh, &conform_params, par)
+                                    .map_err(|e| e.to_string())
+                            })
+                            .and_then(|c| {
+                                isotropic(&mesh, Some(&c.network), &params, par)
+                                    .map_err(|e| e.to_string())
+                            })
+                    } else {
+                        isotropic(&mesh, None, &params, par).map_err(|e| e.to_string())
+                    };
                     runs.push(t.elapsed().as_secs_f64());
                     match r {
                         Ok(o) => out = Some(o),
@@ -113,7 +143,9 @@ fn main() {
             }
             let Some(out) = out else { continue };
             // A graded run is a method of its own in the comparison.
-            let method = if feature_grading > 0.0 {
+            let method = if conforming {
+                "crestflow_conforming"
+            } else if feature_grading > 0.0 {
                 "crestflow_graded"
             } else {
                 "crestflow"

@@ -21,6 +21,7 @@ pub mod chain;
 pub mod features;
 pub mod isotropic;
 pub mod project;
+pub mod prune;
 pub mod sharp_edges;
 pub mod tips;
 

@@ -25,6 +25,7 @@ use crestflow_geom::vec3::{self, V3};
 use crestflow_geom::{FeatureCurveNetwork, TriMesh};
 
 use crate::features::{build_chains, mark_features, FeatureError};
+use crate::prune::prune_below_scale;
 use crate::project::Projector;
 
 /// Parameters of `remesh.sharp_edges`.
@@ -46,6 +47,12 @@ pub struct SharpEdgesParams {
     /// range [0, 180)). Straight creases fix a rigid transformation only up to a spin about
     /// themselves; joined through their corners (an octagon's outline) they fix it fully.
     pub join_angle_deg: f64,
+    /// Removes the parts of the sharp-edge graph below this length, as a fraction of the
+    /// bounding-box diagonal (default 0: none): dangling branches shorter than it and, weakest
+    /// first, branches closing a cycle shorter than twice it ([`crate::prune`]). Boundaries
+    /// stay. Set it to the `scale` of a following `scale.conform`, so that the zig-zags and
+    /// ladders of creases that cut across coarse triangles reach it as crease lines.
+    pub prune_scale: f64,
 }
 
 impl Default for SharpEdgesParams {
@@ -56,6 +63,7 @@ impl Default for SharpEdgesParams {
             boundaries: true,
             min_edges: 1,
             join_angle_deg: 0.0,
+            prune_scale: 0.0,
         }
     }
 }
@@ -73,6 +81,7 @@ impl Validate for SharpEdgesParams {
         );
         check_range(&mut v, "min_edges", self.min_edges, 1, 1_000_000);
         check_range(&mut v, "join_angle_deg", self.join_angle_deg, 0.0, 179.999);
+        check_range(&mut v, "prune_scale", self.prune_scale, 0.0, 1.0);
         v
     }
 }
@@ -134,23 +143,42 @@ pub fn sharp_edges(
             }
         }
     }
-    let chains = build_chains(mesh, &fe, params.corner_angle_deg);
-
-    // Per vertex: the sharpest feature edge at it.
     let normals = mesh.face_normals();
-    let mut strength = vec![0.0f64; n];
-    for (e, &[a, b]) in topo.edges.iter().enumerate() {
-        if !fe.is_feature[e] {
-            continue;
-        }
+    let dihedral = |e: usize| {
         let [f0, f1] = topo.edge_faces[e];
-        let angle = if f1 == NO_FACE {
+        if f1 == NO_FACE {
             std::f64::consts::FRAC_PI_2
         } else {
             vec3::dot(normals[f0 as usize], normals[f1 as usize])
                 .clamp(-1.0, 1.0)
                 .acos()
-        };
+        }
+    };
+    let mut pruned = 0usize;
+    if params.prune_scale > 0.0 {
+        let ids: Vec<usize> = (0..topo.edges.len()).filter(|&e| fe.is_feature[e]).collect();
+        let pairs: Vec<[u32; 2]> = ids.iter().map(|&e| topo.edges[e]).collect();
+        let weight: Vec<f64> = ids.iter().map(|&e| dihedral(e)).collect();
+        let fixed: Vec<bool> = ids.iter().map(|&e| topo.edge_faces[e][1] == NO_FACE).collect();
+        let scale = params.prune_scale * mesh.bbox_diagonal();
+        let alive = prune_below_scale(&pairs, &mesh.positions, &weight, &fixed, scale);
+        for (k, &e) in ids.iter().enumerate() {
+            if !alive[k] {
+                fe.is_feature[e] = false;
+                fe.sharp_only[e] = false;
+                pruned += 1;
+            }
+        }
+    }
+    let chains = build_chains(mesh, &fe, params.corner_angle_deg);
+
+    // Per vertex: the sharpest feature edge at it.
+    let mut strength = vec![0.0f64; n];
+    for (e, &[a, b]) in topo.edges.iter().enumerate() {
+        if !fe.is_feature[e] {
+            continue;
+        }
+        let angle = dihedral(e);
         for v in [a, b] {
             strength[v as usize] = strength[v as usize].max(angle);
         }
@@ -207,6 +235,7 @@ pub fn sharp_edges(
         .set("curves", net.curves.len())
         .set("curves_dropped_short", dropped)
         .set("sharp_edges", fe.sharp)
+        .set("pruned_edges", pruned)
         .set(
             "boundary_edges",
             if params.boundaries { fe.boundary } else { 0 },
@@ -369,15 +398,17 @@ pub struct SharpEdgesNode;
 impl NodeKind for SharpEdgesNode {
     type Params = SharpEdgesParams;
     const KIND: &'static str = "remesh.sharp_edges";
-    const VERSION: u32 = 2;
+    const VERSION: u32 = 3;
     const DOC: &'static str = "Sharp edges (dihedral angle above angle_deg) and boundaries of \
         a mesh as a feature curve network, split at corners (other than two feature edges, or \
         a turn above corner_angle_deg) into the chains remesh.isotropic keeps: the features \
         of CAD meshes, where curvature ridges degenerate at the creases. With join_angle_deg \
         above 0, chains meeting at a corner are joined into one curve, straightest pairs \
-        first, while they turn by less than that angle. Vertex strength is the sharpest \
+        first, while they turn by less than that angle. With prune_scale above 0 (a fraction of the \
+        bounding-box diagonal), dangling branches shorter than it and branches closing cycles \
+        shorter than twice it are removed first, weakest first. Vertex strength is the sharpest \
         dihedral angle at the vertex (radians). Outputs the network and a Report (curves, \
-        curves_dropped_short, sharp_edges, boundary_edges, corners, joins).";
+        curves_dropped_short, sharp_edges, pruned_edges, boundary_edges, corners, joins).";
 
     fn inputs() -> Vec<Port> {
         vec![Port::of::<TriMesh>("mesh", "the surface")]

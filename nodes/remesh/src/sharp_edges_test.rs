@@ -229,3 +229,57 @@ fn joined_open_path_runs_corner_to_corner() {
         ]
     );
 }
+
+#[test]
+fn pruning_breaks_the_prisms_short_cycles_at_its_weakest_creases() {
+    // Side quads are cycles of 4 (two 90° rims, two 60° verticals); the rim hexagons are
+    // cycles of 6. The bounding-box diagonal is √8.
+    let diag = 8f64.sqrt();
+    let run = |scale: f64| {
+        sharp_edges(
+            &prism(6),
+            &SharpEdgesParams {
+                prune_scale: scale / diag,
+                ..Default::default()
+            },
+        )
+        .unwrap()
+    };
+    // At scale 1.9 no cycle is shorter than 2 × 1.9: nothing goes.
+    let kept = run(1.9);
+    assert_eq!(kept.report.num("pruned_edges"), Some(0.0));
+    assert_eq!(kept.network.curves.len(), 18);
+    // At 2.5 the quads (4 < 5) lose their verticals, weakest first, until the last vertical
+    // closes no cycle; the hexagons (6 > 5) stay: 12 rim edges and one vertical.
+    let pruned = run(2.5);
+    assert_eq!(pruned.report.num("sharp_edges"), Some(18.0));
+    assert_eq!(pruned.report.num("pruned_edges"), Some(5.0));
+    let edges: usize = pruned
+        .network
+        .curves
+        .iter()
+        .map(|c| c.vertices.len() - usize::from(!c.closed))
+        .sum();
+    assert_eq!(edges, 13);
+    let net = &pruned.network;
+    let rim_edges = net
+        .curves
+        .iter()
+        .flat_map(|c| {
+            let n = c.vertices.len();
+            let m = if c.closed { n } else { n - 1 };
+            (0..m).map(move |i| [c.vertices[i], c.vertices[(i + 1) % n]])
+        })
+        .filter(|&[a, b]| {
+            let (p, q) = (net.vertices[a as usize].position, net.vertices[b as usize].position);
+            (p[2] - q[2]).abs() < 0.5
+        })
+        .count();
+    assert_eq!(rim_edges, 12, "the 90° rims are stronger than the 60° verticals");
+    // A prune scale outside [0, 1] is a parameter error.
+    let bad = SharpEdgesParams {
+        prune_scale: -0.1,
+        ..Default::default()
+    };
+    assert!(bad.validate().iter().any(|i| i.field == "prune_scale"));
+}

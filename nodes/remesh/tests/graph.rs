@@ -53,3 +53,65 @@ fn remesh_graph_runs_on_the_fandisk() {
     assert!(out.join("mesh.ply").exists());
     let _ = std::fs::remove_dir_all(&out);
 }
+
+/// The goals of the remeshing (issue 7: min angle ≥ 30°), and what this graph gives on the
+/// fandisk at 2 % (valence 6 0.804, Hausdorff 0.00447 of the diagonal when measured), with
+/// room for other rounding: the unconstrained remesh is 0.008–0.011 from the input, so a
+/// Hausdorff below 0.006 means the creases are followed.
+const MIN_ANGLE_CAD: f64 = 30.0;
+const VALENCE6_CAD: f64 = 0.78;
+const HAUSDORFF_CAD: f64 = 0.006;
+
+/// `graphs/scale-remesh-cad.ron`: the sharp edges of the fandisk, made scale
+/// conforming at 2 %, constrain the remeshing. The network passes the check, and the remesh
+/// keeps well-shaped triangles along it while following the part's creases.
+#[test]
+fn scale_remesh_cad_graph_runs_on_the_fandisk() {
+    let mut reg = Registry::new();
+    crestflow_nodes_io::register(&mut reg);
+    crestflow_nodes_render::register(&mut reg);
+    crestflow_nodes_eval::register(&mut reg);
+    crestflow_nodes_remesh::register(&mut reg);
+    crestflow_nodes_scale::register(&mut reg);
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let graph = root.join("graphs/scale-remesh-cad.ron");
+    let out = std::env::temp_dir().join(format!(
+        "crestflow-scale-remesh-cad-{}",
+        std::process::id()
+    ));
+    let plan = load_file(
+        &graph,
+        &reg,
+        &[("out".to_string(), out.display().to_string())],
+    )
+    .unwrap_or_else(|e| panic!("graph does not load: {e:?}"));
+    let opts = RunOptions {
+        use_cache: false,
+        cache_dir: Some(out.join("cache")),
+        ..Default::default()
+    };
+    run(&plan, &opts).unwrap_or_else(|e| panic!("graph does not run: {e:?}"));
+    let read = |name: &str| -> serde_json::Value {
+        let text = std::fs::read_to_string(out.join(name)).expect("report written");
+        serde_json::from_str(&text).expect("report is JSON")
+    };
+    let (s, c, k, q) = (
+        read("sharp.json"),
+        read("conform.json"),
+        read("check.json"),
+        read("quality.json"),
+    );
+    eprintln!("{s}\n{c}\n{k}\n{q}");
+    // The small fandisk's creases are clean lines: nothing below 2 % to prune.
+    assert_eq!(s["sharp_edges"].as_f64(), Some(722.0), "{s}");
+    assert_eq!(s["pruned_edges"].as_f64(), Some(0.0), "{s}");
+    assert_eq!(k["violations"].as_f64(), Some(0.0), "{k}");
+    assert!(c["output_edges"].as_f64().unwrap() > 0.0, "{c}");
+    let min_angle = q["min_angle_deg"].as_f64().unwrap();
+    assert!(min_angle >= MIN_ANGLE_CAD, "{q}");
+    assert!(q["valence6_share"].as_f64().unwrap() > VALENCE6_CAD, "{q}");
+    let h = q["hausdorff_rel"].as_f64().unwrap();
+    assert!(h > 0.0 && h < HAUSDORFF_CAD, "{q}");
+    assert!(out.join("render.png").exists());
+    let _ = std::fs::remove_dir_all(&out);
+}
