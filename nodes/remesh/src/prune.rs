@@ -62,10 +62,7 @@ pub fn prune_below_scale(
                 // junction or a second free end (a removal at the junction merges the rest
                 // into a longer branch, which the next pass measures anew).
                 let [d0, d1] = b.ends.map(|v| live_degree(&inc, &alive, v));
-                let dangling = b.ends[0] != b.ends[1]
-                    && (d0 == 1 || d1 == 1)
-                    && d0 != 2
-                    && d1 != 2;
+                let dangling = b.ends[0] != b.ends[1] && (d0 == 1 || d1 == 1) && d0 != 2 && d1 != 2;
                 if dangling && b.length < scale && b.edges.iter().all(|&e| !fixed[e as usize]) {
                     b.edges.iter().for_each(|&e| alive[e as usize] = false);
                     removed = true;
@@ -77,9 +74,16 @@ pub fn prune_below_scale(
             changed = true;
         }
         let mut order: Vec<Branch> = branches(edges, &alive, &inc, &len, weight);
-        order.sort_by(|x, y| x.weight.total_cmp(&y.weight).then(x.edges[0].cmp(&y.edges[0])));
+        order.sort_by(|x, y| {
+            x.weight
+                .total_cmp(&y.weight)
+                .then(x.edges[0].cmp(&y.edges[0]))
+        });
         for b in &order {
-            if b.edges.iter().any(|&e| fixed[e as usize] || !alive[e as usize]) {
+            if b.edges
+                .iter()
+                .any(|&e| fixed[e as usize] || !alive[e as usize])
+            {
                 continue;
             }
             let budget = 2.0 * scale - b.length;
@@ -139,10 +143,7 @@ fn branches(
         let mut cur = other(first, start);
         let mut last = first;
         while cur != start && live_degree(inc, alive, cur) == 2 {
-            let Some(&next) = inc[&cur]
-                .iter()
-                .find(|&&e| alive[e as usize] && e != last)
-            else {
+            let Some(&next) = inc[&cur].iter().find(|&&e| alive[e as usize] && e != last) else {
                 break;
             };
             if used[next as usize] {

@@ -44,8 +44,12 @@ fn a_short_spur_goes_and_the_line_stays() {
     assert!(!keep[10], "the spur of 0.5 is below the scale");
     assert!(keep[11], "the spur of 3 is a feature of its own");
     // Scale 0 (or NaN) changes nothing; a fixed short spur stays.
-    assert!(prune_below_scale(&edges, &pos, &w, &fixed, 0.0).iter().all(|&k| k));
-    assert!(prune_below_scale(&edges, &pos, &w, &fixed, f64::NAN).iter().all(|&k| k));
+    assert!(prune_below_scale(&edges, &pos, &w, &fixed, 0.0)
+        .iter()
+        .all(|&k| k));
+    assert!(prune_below_scale(&edges, &pos, &w, &fixed, f64::NAN)
+        .iter()
+        .all(|&k| k));
     let mut fixed_spur = fixed.clone();
     fixed_spur[10] = true;
     assert!(prune_below_scale(&edges, &pos, &w, &fixed_spur, 1.0)[10]);
@@ -83,7 +87,11 @@ fn a_closed_ladder_keeps_its_outline_and_no_short_cycle() {
         if keep[e] {
             let l = vec3::dist(pos[a as usize], pos[b as usize]);
             let around = shortest(&edges, &keep, &pos, a, b, e);
-            assert!(l + around >= 2.0, "edge {e} closes a cycle of {}", l + around);
+            assert!(
+                l + around >= 2.0,
+                "edge {e} closes a cycle of {}",
+                l + around
+            );
         }
     }
 }

@@ -25,8 +25,8 @@ use crestflow_geom::vec3::{self, V3};
 use crestflow_geom::{FeatureCurveNetwork, TriMesh};
 
 use crate::features::{build_chains, mark_features, FeatureError};
-use crate::prune::prune_below_scale;
 use crate::project::Projector;
+use crate::prune::prune_below_scale;
 
 /// Parameters of `remesh.sharp_edges`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -156,10 +156,15 @@ pub fn sharp_edges(
     };
     let mut pruned = 0usize;
     if params.prune_scale > 0.0 {
-        let ids: Vec<usize> = (0..topo.edges.len()).filter(|&e| fe.is_feature[e]).collect();
+        let ids: Vec<usize> = (0..topo.edges.len())
+            .filter(|&e| fe.is_feature[e])
+            .collect();
         let pairs: Vec<[u32; 2]> = ids.iter().map(|&e| topo.edges[e]).collect();
         let weight: Vec<f64> = ids.iter().map(|&e| dihedral(e)).collect();
-        let fixed: Vec<bool> = ids.iter().map(|&e| topo.edge_faces[e][1] == NO_FACE).collect();
+        let fixed: Vec<bool> = ids
+            .iter()
+            .map(|&e| topo.edge_faces[e][1] == NO_FACE)
+            .collect();
         let scale = params.prune_scale * mesh.bbox_diagonal();
         let alive = prune_below_scale(&pairs, &mesh.positions, &weight, &fixed, scale);
         for (k, &e) in ids.iter().enumerate() {

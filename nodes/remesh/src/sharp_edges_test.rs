@@ -271,11 +271,17 @@ fn pruning_breaks_the_prisms_short_cycles_at_its_weakest_creases() {
             (0..m).map(move |i| [c.vertices[i], c.vertices[(i + 1) % n]])
         })
         .filter(|&[a, b]| {
-            let (p, q) = (net.vertices[a as usize].position, net.vertices[b as usize].position);
+            let (p, q) = (
+                net.vertices[a as usize].position,
+                net.vertices[b as usize].position,
+            );
             (p[2] - q[2]).abs() < 0.5
         })
         .count();
-    assert_eq!(rim_edges, 12, "the 90° rims are stronger than the 60° verticals");
+    assert_eq!(
+        rim_edges, 12,
+        "the 90° rims are stronger than the 60° verticals"
+    );
     // A prune scale outside [0, 1] is a parameter error.
     let bad = SharpEdgesParams {
         prune_scale: -0.1,

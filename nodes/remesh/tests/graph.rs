@@ -75,10 +75,8 @@ fn scale_remesh_cad_graph_runs_on_the_fandisk() {
     crestflow_nodes_scale::register(&mut reg);
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..");
     let graph = root.join("graphs/scale-remesh-cad.ron");
-    let out = std::env::temp_dir().join(format!(
-        "crestflow-scale-remesh-cad-{}",
-        std::process::id()
-    ));
+    let out =
+        std::env::temp_dir().join(format!("crestflow-scale-remesh-cad-{}", std::process::id()));
     let plan = load_file(
         &graph,
         &reg,
