@@ -720,7 +720,8 @@ fn feature_degrees(mesh: &TriMesh, fe: &FeatureEdges) -> Vec<u32> {
 /// Drops the free ends of curves that come within `clearance` of one of `points` (tips kept
 /// as fixed vertices): from a vertex with one feature edge, curve edges are unmarked while
 /// the free end lies within `clearance` of that point, up to a vertex with more feature
-/// edges. A curve ending beside a tip would leave two fixed vertices closer than the
+/// edges, and on to the network vertex behind the new end when that is nearer than
+/// `clearance`. A curve ending beside a tip would leave two fixed vertices closer than the
 /// collapse length (on the armadillo at 2 %, its ridges end 0.09 L from fingertips: triangles
 /// of 8°). Sharp and boundary edges are kept. Returns the chains rebuilt (unchanged when
 /// nothing was dropped).
@@ -770,6 +771,42 @@ pub fn trim_curve_ends_near(
             degree[end as usize] -= 1;
             degree[w as usize] -= 1;
             end = w;
+        }
+        if end == v {
+            continue;
+        }
+        // The new end lies inside an edge of the network (on its mesh path). When the
+        // network vertex behind it is less than `clearance` away along the path, the stub up
+        // to it goes too: both ends would be fixed (a free end, and a network vertex that is
+        // a corner), an edge no collapse could remove (on the armadillo's scale-conforming
+        // curves at 2 %: 0.33 L, triangles of 20°).
+        let mut stub = Vec::new();
+        let (mut at, mut length) = (end, 0.0);
+        while fe.anchor[at as usize].is_none() && length < clearance {
+            let next = topo.neighbors(at).iter().find_map(|&w| {
+                topo.find_edge(at, w)
+                    .filter(|&e| fe.is_feature[e as usize] && !stub.contains(&e))
+                    .map(|e| (e, w))
+            });
+            let Some((e, w)) = next else {
+                break;
+            };
+            if !fe.from_curve[e as usize] || (at != end && degree[at as usize] != 2) {
+                break;
+            }
+            length += vec3::dist(mesh.positions[at as usize], mesh.positions[w as usize]);
+            stub.push(e);
+            at = w;
+        }
+        if fe.anchor[at as usize].is_some() && length < clearance && at != end {
+            for &e in &stub {
+                fe.is_feature[e as usize] = false;
+                fe.from_curve[e as usize] = false;
+                fe.trimmed += 1;
+                let [a, b] = topo.edges[e as usize];
+                degree[a as usize] -= 1;
+                degree[b as usize] -= 1;
+            }
         }
     }
     if fe.trimmed == before {

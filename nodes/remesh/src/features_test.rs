@@ -156,3 +156,29 @@ fn curve_ends_beside_a_point_are_trimmed_back_to_the_clearance() {
     assert_eq!(fe.trimmed, before);
     assert_eq!(chains.points.len(), 2);
 }
+
+#[test]
+fn a_trimmed_end_next_to_a_network_vertex_is_trimmed_to_it() {
+    // As above, but the network has a vertex at x = 0.6: trimming back to the clearance
+    // stops at x = 0.65, 0.05 from that vertex, which would leave an edge between two fixed
+    // vertices far shorter than the collapse length. The stub goes too: the curve ends at
+    // the network vertex, 4 edges trimmed.
+    let mesh = unit_grid(20);
+    let line: Vec<V3> = vec![[0.2, 0.5, 0.0], [0.6, 0.5, 0.0], [0.8, 0.5, 0.0]];
+    let net = FeatureCurveNetwork::from_polylines(&line, &[(&[0, 1, 2], false)]);
+    let proj = Projector::new(&mesh);
+    let mut fe = mark_features(&mesh, None, Some(&net), &proj).unwrap();
+    let chains = build_chains(&mesh, &fe, 100.0);
+    let chains = trim_curve_ends_near(&mesh, &mut fe, chains, &[[0.86, 0.5, 0.0]], 0.2, 100.0);
+    assert_eq!(fe.trimmed, 4);
+    let topo = mesh.topology();
+    let xmax = (0..topo.edges.len())
+        .filter(|&e| fe.is_feature[e] && !topo.is_boundary_edge(e as u32))
+        .flat_map(|e| topo.edges[e].map(|v| mesh.positions[v as usize][0]))
+        .fold(0.0, f64::max);
+    assert!(
+        (xmax - 0.6).abs() < 1e-12,
+        "the curve now ends at x = {xmax}"
+    );
+    assert!(chains.is_corner[10 * 21 + 12]); // (0.6, 0.5)
+}
