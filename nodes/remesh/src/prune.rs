@@ -11,17 +11,63 @@
 //! at the same place, with the arcs between real junctions.
 
 use std::cmp::Reverse;
-use std::collections::{BTreeMap, BinaryHeap};
+use std::collections::BinaryHeap;
 
 use crestflow_geom::vec3::{self, V3};
+
+/// Most vertices one search for a short cycle settles. On a dense feature graph (a low
+/// dihedral threshold on a scan) and a scale of a good part of the model, an unbounded search
+/// per branch would visit most of the graph; a branch whose search runs out is kept, as if no
+/// short cycle closed it.
+const MAX_SETTLED: usize = 512;
 
 /// A maximal path of the graph whose inner vertices have two edges.
 struct Branch {
     edges: Vec<u32>,
+    /// Compact vertex ids of its ends.
     ends: [u32; 2],
     length: f64,
     /// Length-weighted mean of the edge weights.
     weight: f64,
+}
+
+/// The live graph: edges on compact vertex ids, incident edges per vertex (CSR, in edge
+/// order), live degrees.
+struct Live<'a> {
+    ends: Vec<[u32; 2]>,
+    len: Vec<f64>,
+    weight: &'a [f64],
+    start: Vec<usize>,
+    inc: Vec<u32>,
+    alive: Vec<bool>,
+    degree: Vec<u32>,
+}
+
+impl Live<'_> {
+    fn incident(&self, v: u32) -> &[u32] {
+        &self.inc[self.start[v as usize]..self.start[v as usize + 1]]
+    }
+    fn other(&self, e: u32, v: u32) -> u32 {
+        let [a, b] = self.ends[e as usize];
+        if a == v {
+            b
+        } else {
+            a
+        }
+    }
+    fn set_alive(&mut self, e: u32, on: bool) {
+        if self.alive[e as usize] != on {
+            self.alive[e as usize] = on;
+            let [a, b] = self.ends[e as usize];
+            for v in [a, b] {
+                if on {
+                    self.degree[v as usize] += 1;
+                } else {
+                    self.degree[v as usize] -= 1;
+                }
+            }
+        }
+    }
 }
 
 /// Which of `edges` (vertex pairs into `positions`) survive the pruning at `scale`.
@@ -34,37 +80,64 @@ pub fn prune_below_scale(
     fixed: &[bool],
     scale: f64,
 ) -> Vec<bool> {
-    let mut alive = vec![true; edges.len()];
     if !(scale > 0.0) || edges.is_empty() {
-        return alive;
+        return vec![true; edges.len()];
     }
-    let len: Vec<f64> = edges
-        .iter()
-        .map(|&[a, b]| vec3::dist(positions[a as usize], positions[b as usize]))
-        .collect();
-    // Incident edges per vertex, in a fixed order.
-    let mut inc: BTreeMap<u32, Vec<u32>> = BTreeMap::new();
-    for (e, &[a, b]) in edges.iter().enumerate() {
+    // Compact vertex ids in increasing order of the input ids; loops (a == b) take no part.
+    let mut verts: Vec<u32> = edges.iter().flatten().copied().collect();
+    verts.sort_unstable();
+    verts.dedup();
+    let id = |v: u32| verts.binary_search(&v).unwrap_or(0) as u32;
+    let ends: Vec<[u32; 2]> = edges.iter().map(|&[a, b]| [id(a), id(b)]).collect();
+    let nv = verts.len();
+    let mut start = vec![0usize; nv + 1];
+    for &[a, b] in &ends {
         if a != b {
-            inc.entry(a).or_default().push(e as u32);
-            inc.entry(b).or_default().push(e as u32);
+            start[a as usize + 1] += 1;
+            start[b as usize + 1] += 1;
         }
     }
+    for v in 0..nv {
+        start[v + 1] += start[v];
+    }
+    let mut fill = start.clone();
+    let mut inc = vec![0u32; start[nv]];
+    for (e, &[a, b]) in ends.iter().enumerate() {
+        if a != b {
+            for v in [a, b] {
+                inc[fill[v as usize]] = e as u32;
+                fill[v as usize] += 1;
+            }
+        }
+    }
+    let degree: Vec<u32> = (0..nv).map(|v| (start[v + 1] - start[v]) as u32).collect();
+    let mut g = Live {
+        len: edges
+            .iter()
+            .map(|&[a, b]| vec3::dist(positions[a as usize], positions[b as usize]))
+            .collect(),
+        ends,
+        weight,
+        start,
+        inc,
+        alive: edges.iter().map(|&[a, b]| a != b).collect(),
+        degree,
+    };
+    let mut search = Search::new(nv);
     // Each round removes spurs, then breaks short cycles; a removal can turn a junction into
     // a path vertex and lengthen branches, so rounds repeat until nothing changes.
     for _ in 0..edges.len() {
         let mut changed = false;
         loop {
-            let branches = branches(edges, &alive, &inc, &len, weight);
             let mut removed = false;
-            for b in &branches {
+            for b in branches(&g) {
                 // Both ends as they were when the branch was found: a free end, and a
                 // junction or a second free end (a removal at the junction merges the rest
                 // into a longer branch, which the next pass measures anew).
-                let [d0, d1] = b.ends.map(|v| live_degree(&inc, &alive, v));
+                let [d0, d1] = b.ends.map(|v| g.degree[v as usize]);
                 let dangling = b.ends[0] != b.ends[1] && (d0 == 1 || d1 == 1) && d0 != 2 && d1 != 2;
                 if dangling && b.length < scale && b.edges.iter().all(|&e| !fixed[e as usize]) {
-                    b.edges.iter().for_each(|&e| alive[e as usize] = false);
+                    b.edges.iter().for_each(|&e| g.set_alive(e, false));
                     removed = true;
                 }
             }
@@ -73,7 +146,7 @@ pub fn prune_below_scale(
             }
             changed = true;
         }
-        let mut order: Vec<Branch> = branches(edges, &alive, &inc, &len, weight);
+        let mut order = branches(&g);
         order.sort_by(|x, y| {
             x.weight
                 .total_cmp(&y.weight)
@@ -82,7 +155,7 @@ pub fn prune_below_scale(
         for b in &order {
             if b.edges
                 .iter()
-                .any(|&e| fixed[e as usize] || !alive[e as usize])
+                .any(|&e| fixed[e as usize] || !g.alive[e as usize])
             {
                 continue;
             }
@@ -94,15 +167,15 @@ pub fn prune_below_scale(
             // A branch that is a whole short loop, or whose ends are joined by another path
             // short enough to close a cycle below 2 × scale, goes.
             let closes = if u == v {
-                live_degree(&inc, &alive, u) > 2
+                g.degree[u as usize] > 2
             } else {
-                b.edges.iter().for_each(|&e| alive[e as usize] = false);
-                let near = reachable_within(edges, &alive, &inc, &len, u, v, budget);
-                b.edges.iter().for_each(|&e| alive[e as usize] = true);
+                b.edges.iter().for_each(|&e| g.set_alive(e, false));
+                let near = search.reachable_within(&g, u, v, budget);
+                b.edges.iter().for_each(|&e| g.set_alive(e, true));
                 near
             };
             if closes {
-                b.edges.iter().for_each(|&e| alive[e as usize] = false);
+                b.edges.iter().for_each(|&e| g.set_alive(e, false));
                 changed = true;
             }
         }
@@ -110,40 +183,25 @@ pub fn prune_below_scale(
             break;
         }
     }
-    alive
-}
-
-fn live_degree(inc: &BTreeMap<u32, Vec<u32>>, alive: &[bool], v: u32) -> usize {
-    inc.get(&v)
-        .map_or(0, |es| es.iter().filter(|&&e| alive[e as usize]).count())
+    g.alive
 }
 
 /// The branches of the live graph: walks from every vertex with other than two live edges,
 /// then the cycles without such a vertex.
-fn branches(
-    edges: &[[u32; 2]],
-    alive: &[bool],
-    inc: &BTreeMap<u32, Vec<u32>>,
-    len: &[f64],
-    weight: &[f64],
-) -> Vec<Branch> {
-    let mut used = vec![false; edges.len()];
+fn branches(g: &Live) -> Vec<Branch> {
+    let mut used = vec![false; g.ends.len()];
     let mut out = Vec::new();
-    let other = |e: u32, v: u32| {
-        let [a, b] = edges[e as usize];
-        if a == v {
-            b
-        } else {
-            a
-        }
-    };
     let walk = |start: u32, first: u32, used: &mut Vec<bool>| -> Branch {
         let mut path = vec![first];
         used[first as usize] = true;
-        let mut cur = other(first, start);
+        let mut cur = g.other(first, start);
         let mut last = first;
-        while cur != start && live_degree(inc, alive, cur) == 2 {
-            let Some(&next) = inc[&cur].iter().find(|&&e| alive[e as usize] && e != last) else {
+        while cur != start && g.degree[cur as usize] == 2 {
+            let Some(&next) = g
+                .incident(cur)
+                .iter()
+                .find(|&&e| g.alive[e as usize] && e != last)
+            else {
                 break;
             };
             if used[next as usize] {
@@ -152,12 +210,12 @@ fn branches(
             used[next as usize] = true;
             path.push(next);
             last = next;
-            cur = other(next, cur);
+            cur = g.other(next, cur);
         }
-        let length: f64 = path.iter().map(|&e| len[e as usize]).sum();
+        let length: f64 = path.iter().map(|&e| g.len[e as usize]).sum();
         let weighted: f64 = path
             .iter()
-            .map(|&e| len[e as usize] * weight[e as usize])
+            .map(|&e| g.len[e as usize] * g.weight[e as usize])
             .sum();
         Branch {
             ends: [start, cur],
@@ -166,19 +224,20 @@ fn branches(
             edges: path,
         }
     };
-    for (&v, es) in inc {
-        if live_degree(inc, alive, v) == 2 {
+    let n = g.degree.len() as u32;
+    for v in 0..n {
+        if g.degree[v as usize] == 2 {
             continue;
         }
-        for &e in es {
-            if alive[e as usize] && !used[e as usize] {
+        for &e in g.incident(v) {
+            if g.alive[e as usize] && !used[e as usize] {
                 out.push(walk(v, e, &mut used));
             }
         }
     }
-    for (&v, es) in inc {
-        for &e in es {
-            if alive[e as usize] && !used[e as usize] {
+    for v in 0..n {
+        for &e in g.incident(v) {
+            if g.alive[e as usize] && !used[e as usize] {
                 out.push(walk(v, e, &mut used));
             }
         }
@@ -186,41 +245,67 @@ fn branches(
     out
 }
 
-/// Whether `to` is within `budget` of `from` over live edges (Dijkstra cut off at the budget).
-fn reachable_within(
-    edges: &[[u32; 2]],
-    alive: &[bool],
-    inc: &BTreeMap<u32, Vec<u32>>,
-    len: &[f64],
-    from: u32,
-    to: u32,
-    budget: f64,
-) -> bool {
-    let mut dist: BTreeMap<u32, f64> = BTreeMap::new();
-    let mut heap = BinaryHeap::new();
-    dist.insert(from, 0.0);
-    heap.push(Reverse((Key(0.0), from)));
-    while let Some(Reverse((Key(d), v))) = heap.pop() {
-        if v == to {
-            return true;
-        }
-        if d > dist[&v] {
-            continue;
-        }
-        for &e in inc.get(&v).into_iter().flatten() {
-            if !alive[e as usize] {
-                continue;
-            }
-            let [a, b] = edges[e as usize];
-            let w = if a == v { b } else { a };
-            let nd = d + len[e as usize];
-            if nd <= budget && dist.get(&w).is_none_or(|&old| nd < old) {
-                dist.insert(w, nd);
-                heap.push(Reverse((Key(nd), w)));
-            }
+/// Dijkstra cut off at a distance budget, reusing its arrays between searches.
+struct Search {
+    dist: Vec<f64>,
+    touched: Vec<u32>,
+    heap: BinaryHeap<Reverse<(Key, u32)>>,
+}
+
+impl Search {
+    fn new(n: usize) -> Self {
+        Search {
+            dist: vec![f64::INFINITY; n],
+            touched: Vec::new(),
+            heap: BinaryHeap::new(),
         }
     }
-    false
+
+    /// Whether `to` is within `budget` of `from` over live edges (at most [`MAX_SETTLED`]
+    /// vertices settled; false when the search runs out).
+    fn reachable_within(&mut self, g: &Live, from: u32, to: u32, budget: f64) -> bool {
+        let found = self.run(g, from, to, budget);
+        for &v in &self.touched {
+            self.dist[v as usize] = f64::INFINITY;
+        }
+        self.touched.clear();
+        self.heap.clear();
+        found
+    }
+
+    fn run(&mut self, g: &Live, from: u32, to: u32, budget: f64) -> bool {
+        self.dist[from as usize] = 0.0;
+        self.touched.push(from);
+        self.heap.push(Reverse((Key(0.0), from)));
+        let mut settled = 0;
+        while let Some(Reverse((Key(d), v))) = self.heap.pop() {
+            if v == to {
+                return true;
+            }
+            if d > self.dist[v as usize] {
+                continue;
+            }
+            settled += 1;
+            if settled > MAX_SETTLED {
+                return false;
+            }
+            for &e in g.incident(v) {
+                if !g.alive[e as usize] {
+                    continue;
+                }
+                let w = g.other(e, v);
+                let nd = d + g.len[e as usize];
+                if nd <= budget && nd < self.dist[w as usize] {
+                    if self.dist[w as usize] == f64::INFINITY {
+                        self.touched.push(w);
+                    }
+                    self.dist[w as usize] = nd;
+                    self.heap.push(Reverse((Key(nd), w)));
+                }
+            }
+        }
+        false
+    }
 }
 
 /// A total order on finite distances for the heap.

@@ -110,3 +110,83 @@ fn a_small_loop_hanging_off_a_line_goes() {
     let keep = prune_below_scale(&edges, &pos, &w, &vec![false; edges.len()], 1.0);
     assert_eq!(keep, [vec![true; 6], vec![false; 4]].concat());
 }
+
+/// All edges of an n × n vertex grid of unit spacing, and the vertex positions.
+fn grid_graph(n: u32) -> (Vec<V3>, Vec<[u32; 2]>) {
+    let pos: Vec<V3> = (0..n * n)
+        .map(|i| [(i % n) as f64, (i / n) as f64, 0.0])
+        .collect();
+    let mut edges = Vec::new();
+    for j in 0..n {
+        for i in 0..n {
+            let v = j * n + i;
+            if i + 1 < n {
+                edges.push([v, v + 1]);
+            }
+            if j + 1 < n {
+                edges.push([v, v + n]);
+            }
+        }
+    }
+    (pos, edges)
+}
+
+#[test]
+fn a_dense_grid_is_pruned_by_its_cycle_length() {
+    // A grid's shortest cycles are its squares, of length 4.
+    let (pos, edges) = grid_graph(15);
+    let w: Vec<f64> = (0..edges.len()).map(|e| 1.0 + (e % 7) as f64).collect();
+    let free = vec![false; edges.len()];
+    // Below 2 (2 × scale < 4) nothing goes.
+    assert!(prune_below_scale(&edges, &pos, &w, &free, 1.9)
+        .iter()
+        .all(|&k| k));
+    // At 2.5 every square is broken, and nothing that remains closes a cycle below 5.
+    let keep = prune_below_scale(&edges, &pos, &w, &free, 2.5);
+    let kept = keep.iter().filter(|&&k| k).count();
+    assert!(kept > 0 && kept < edges.len(), "{kept} of {}", edges.len());
+    for (e, &[a, b]) in edges.iter().enumerate() {
+        if keep[e] {
+            let around = shortest(&edges, &keep, &pos, a, b, e);
+            assert!(
+                1.0 + around >= 5.0,
+                "edge {e} closes a cycle of {}",
+                1.0 + around
+            );
+        }
+    }
+}
+
+#[test]
+fn a_large_dense_grid_at_a_scale_above_its_size_is_removed_whole() {
+    // 7320 edges at a scale of 1000: weakest first, every edge that closes a cycle goes (the
+    // searches are bounded, MAX_SETTLED; an edge whose search runs out stays for now), then
+    // what is left dangles and is shorter than the scale, round after round, until nothing
+    // is left.
+    let (pos, edges) = grid_graph(61);
+    let w: Vec<f64> = (0..edges.len()).map(|e| 1.0 + (e % 7) as f64).collect();
+    let keep = prune_below_scale(&edges, &pos, &w, &vec![false; edges.len()], 1000.0);
+    assert_eq!(keep.iter().filter(|&&k| k).count(), 0);
+    // With the grid's outline fixed, the outline stays, and no free end: what else stays
+    // closes cycles through the outline that the bounded searches did not find.
+    let outline: Vec<bool> = edges
+        .iter()
+        .map(|&[a, b]| {
+            let on = |v: u32| {
+                let (x, y) = (v % 61, v / 61);
+                x == 0 || y == 0 || x == 60 || y == 60
+            };
+            on(a) && on(b)
+        })
+        .collect();
+    let keep = prune_below_scale(&edges, &pos, &w, &outline, 1000.0);
+    assert!((0..edges.len()).all(|e| keep[e] || !outline[e]));
+    let mut degree = vec![0; pos.len()];
+    for (e, &[a, b]) in edges.iter().enumerate() {
+        if keep[e] {
+            degree[a as usize] += 1;
+            degree[b as usize] += 1;
+        }
+    }
+    assert!(degree.iter().all(|&d| d != 1), "a free end is left");
+}
