@@ -6,6 +6,7 @@
 pub mod bvh;
 pub mod curvature;
 pub mod fcn;
+pub mod graph;
 pub mod halfedge;
 pub mod io;
 pub mod locality;

@@ -421,7 +421,7 @@ fn shortest_path(mesh: &TriMesh, u: u32, w: u32) -> Option<Vec<u32>> {
 
 /// f64 ordered by `total_cmp` (ties broken by the vertex index in the heap tuple).
 #[derive(Clone, Copy, PartialEq)]
-struct Ord64(f64);
+pub(crate) struct Ord64(pub(crate) f64);
 impl Eq for Ord64 {}
 impl PartialOrd for Ord64 {
     fn partial_cmp(&self, o: &Self) -> Option<std::cmp::Ordering> {

@@ -13,7 +13,10 @@
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
+use crestflow_geom::graph::extract_arcs;
 use crestflow_geom::vec3::{self, V3};
+
+use crate::features::Ord64;
 
 /// Most vertices one search for a short cycle settles. On a dense feature graph (a low
 /// dihedral threshold on a scan) and a scale of a good part of the model, an unbounded search
@@ -186,70 +189,41 @@ pub fn prune_below_scale(
     g.alive
 }
 
-/// The branches of the live graph: walks from every vertex with other than two live edges,
-/// then the cycles without such a vertex.
+/// The branches of the live graph ([`extract_arcs`]: from the vertices with other than two
+/// live edges in vertex order, then the loops), with their lengths and weights.
 fn branches(g: &Live) -> Vec<Branch> {
-    let mut used = vec![false; g.ends.len()];
-    let mut out = Vec::new();
-    let walk = |start: u32, first: u32, used: &mut Vec<bool>| -> Branch {
-        let mut path = vec![first];
-        used[first as usize] = true;
-        let mut cur = g.other(first, start);
-        let mut last = first;
-        while cur != start && g.degree[cur as usize] == 2 {
-            let Some(&next) = g
-                .incident(cur)
+    extract_arcs(g.degree.len(), &g.ends, &g.alive)
+        .into_iter()
+        .map(|arc| {
+            let length: f64 = arc.edges.iter().map(|&e| g.len[e as usize]).sum();
+            let weighted: f64 = arc
+                .edges
                 .iter()
-                .find(|&&e| g.alive[e as usize] && e != last)
-            else {
-                break;
-            };
-            if used[next as usize] {
-                break;
+                .map(|&e| g.len[e as usize] * g.weight[e as usize])
+                .sum();
+            let first = arc.nodes[0];
+            Branch {
+                ends: [
+                    first,
+                    if arc.closed {
+                        first
+                    } else {
+                        arc.nodes[arc.nodes.len() - 1]
+                    },
+                ],
+                weight: if length > 0.0 { weighted / length } else { 0.0 },
+                length,
+                edges: arc.edges,
             }
-            used[next as usize] = true;
-            path.push(next);
-            last = next;
-            cur = g.other(next, cur);
-        }
-        let length: f64 = path.iter().map(|&e| g.len[e as usize]).sum();
-        let weighted: f64 = path
-            .iter()
-            .map(|&e| g.len[e as usize] * g.weight[e as usize])
-            .sum();
-        Branch {
-            ends: [start, cur],
-            weight: if length > 0.0 { weighted / length } else { 0.0 },
-            length,
-            edges: path,
-        }
-    };
-    let n = g.degree.len() as u32;
-    for v in 0..n {
-        if g.degree[v as usize] == 2 {
-            continue;
-        }
-        for &e in g.incident(v) {
-            if g.alive[e as usize] && !used[e as usize] {
-                out.push(walk(v, e, &mut used));
-            }
-        }
-    }
-    for v in 0..n {
-        for &e in g.incident(v) {
-            if g.alive[e as usize] && !used[e as usize] {
-                out.push(walk(v, e, &mut used));
-            }
-        }
-    }
-    out
+        })
+        .collect()
 }
 
 /// Dijkstra cut off at a distance budget, reusing its arrays between searches.
 struct Search {
     dist: Vec<f64>,
     touched: Vec<u32>,
-    heap: BinaryHeap<Reverse<(Key, u32)>>,
+    heap: BinaryHeap<Reverse<(Ord64, u32)>>,
 }
 
 impl Search {
@@ -276,9 +250,9 @@ impl Search {
     fn run(&mut self, g: &Live, from: u32, to: u32, budget: f64) -> bool {
         self.dist[from as usize] = 0.0;
         self.touched.push(from);
-        self.heap.push(Reverse((Key(0.0), from)));
+        self.heap.push(Reverse((Ord64(0.0), from)));
         let mut settled = 0;
-        while let Some(Reverse((Key(d), v))) = self.heap.pop() {
+        while let Some(Reverse((Ord64(d), v))) = self.heap.pop() {
             if v == to {
                 return true;
             }
@@ -300,26 +274,11 @@ impl Search {
                         self.touched.push(w);
                     }
                     self.dist[w as usize] = nd;
-                    self.heap.push(Reverse((Key(nd), w)));
+                    self.heap.push(Reverse((Ord64(nd), w)));
                 }
             }
         }
         false
-    }
-}
-
-/// A total order on finite distances for the heap.
-#[derive(Clone, Copy, PartialEq)]
-struct Key(f64);
-impl Eq for Key {}
-impl PartialOrd for Key {
-    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
-        Some(self.cmp(other))
-    }
-}
-impl Ord for Key {
-    fn cmp(&self, other: &Self) -> std::cmp::Ordering {
-        self.0.total_cmp(&other.0)
     }
 }
 

@@ -5,8 +5,9 @@ use std::path::PathBuf;
 
 use crestflow_flow::{load_file, run, Registry, RunOptions};
 
-#[test]
-fn remesh_graph_runs_on_the_fandisk() {
+/// Runs shipped graph `name` with every node family it may use registered, `out` set to a
+/// fresh temporary folder and the given parameters; returns that folder.
+fn run_shipped(name: &str, sets: &[(&str, &str)]) -> PathBuf {
     let mut reg = Registry::new();
     crestflow_nodes_io::register(&mut reg);
     crestflow_nodes_curvature::register(&mut reg);
@@ -14,28 +15,36 @@ fn remesh_graph_runs_on_the_fandisk() {
     crestflow_nodes_render::register(&mut reg);
     crestflow_nodes_eval::register(&mut reg);
     crestflow_nodes_remesh::register(&mut reg);
+    crestflow_nodes_scale::register(&mut reg);
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..");
-    let graph = root.join("graphs/remesh.ron");
-    let out = std::env::temp_dir().join(format!("crestflow-remesh-graph-{}", std::process::id()));
-    let plan = load_file(
-        &graph,
-        &reg,
-        &[
-            ("out".to_string(), out.display().to_string()),
-            ("scale".to_string(), "0.02".to_string()),
-        ],
-    )
-    .unwrap_or_else(|e| panic!("graph does not load: {e:?}"));
+    let out = std::env::temp_dir().join(format!(
+        "crestflow-{}-{}",
+        name.trim_end_matches(".ron"),
+        std::process::id()
+    ));
+    let mut params = vec![("out".to_string(), out.display().to_string())];
+    params.extend(sets.iter().map(|(k, v)| (k.to_string(), v.to_string())));
+    let plan = load_file(&root.join("graphs").join(name), &reg, &params)
+        .unwrap_or_else(|e| panic!("{name} does not load: {e:?}"));
     let opts = RunOptions {
         use_cache: false,
         cache_dir: Some(out.join("cache")),
         ..Default::default()
     };
-    run(&plan, &opts).unwrap_or_else(|e| panic!("graph does not run: {e:?}"));
-    let read = |name: &str| -> serde_json::Value {
-        let text = std::fs::read_to_string(out.join(name)).expect("report written");
-        serde_json::from_str(&text).expect("report is JSON")
-    };
+    run(&plan, &opts).unwrap_or_else(|e| panic!("{name} does not run: {e:?}"));
+    out
+}
+
+/// Report `name` written by a graph into `out`.
+fn read(out: &std::path::Path, name: &str) -> serde_json::Value {
+    let text = std::fs::read_to_string(out.join(name)).expect("report written");
+    serde_json::from_str(&text).expect("report is JSON")
+}
+
+#[test]
+fn remesh_graph_runs_on_the_fandisk() {
+    let out = run_shipped("remesh.ron", &[("scale", "0.02")]);
+    let read = |name: &str| read(&out, name);
     let q = read("quality.json");
     let r = read("remesh.json");
     eprintln!("{q}\n{r}");
@@ -67,32 +76,8 @@ const HAUSDORFF_CAD: f64 = 0.006;
 /// keeps well-shaped triangles along it while following the part's creases.
 #[test]
 fn scale_remesh_cad_graph_runs_on_the_fandisk() {
-    let mut reg = Registry::new();
-    crestflow_nodes_io::register(&mut reg);
-    crestflow_nodes_render::register(&mut reg);
-    crestflow_nodes_eval::register(&mut reg);
-    crestflow_nodes_remesh::register(&mut reg);
-    crestflow_nodes_scale::register(&mut reg);
-    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..");
-    let graph = root.join("graphs/scale-remesh-cad.ron");
-    let out =
-        std::env::temp_dir().join(format!("crestflow-scale-remesh-cad-{}", std::process::id()));
-    let plan = load_file(
-        &graph,
-        &reg,
-        &[("out".to_string(), out.display().to_string())],
-    )
-    .unwrap_or_else(|e| panic!("graph does not load: {e:?}"));
-    let opts = RunOptions {
-        use_cache: false,
-        cache_dir: Some(out.join("cache")),
-        ..Default::default()
-    };
-    run(&plan, &opts).unwrap_or_else(|e| panic!("graph does not run: {e:?}"));
-    let read = |name: &str| -> serde_json::Value {
-        let text = std::fs::read_to_string(out.join(name)).expect("report written");
-        serde_json::from_str(&text).expect("report is JSON")
-    };
+    let out = run_shipped("scale-remesh-cad.ron", &[]);
+    let read = |name: &str| read(&out, name);
     let (s, c, k, q) = (
         read("sharp.json"),
         read("conform.json"),
