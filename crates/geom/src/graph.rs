@@ -12,11 +12,9 @@ pub struct Arc {
     pub closed: bool,
 }
 
-/// Splits the edges with `alive[e]` into arcs (Def. 2.1). Arcs start at extraordinary nodes in
-/// node order, leaving through their edges in edge order; loops follow, from their smallest
-/// node. Every live edge belongs to exactly one arc.
-pub fn extract_arcs(n_nodes: usize, edges: &[[u32; 2]], alive: &[bool]) -> Vec<Arc> {
-    // Incidence lists (CSR), edges in index order.
+/// The edges with `alive[e]` at each node, in edge order, as compressed rows: node n's are
+/// `inc[offsets[n]..offsets[n + 1]]`. An edge from a node to itself is listed twice there.
+pub fn incidence(n_nodes: usize, edges: &[[u32; 2]], alive: &[bool]) -> (Vec<usize>, Vec<u32>) {
     let mut offsets = vec![0usize; n_nodes + 1];
     for (e, &[p, q]) in edges.iter().enumerate() {
         if alive[e] {
@@ -37,6 +35,14 @@ pub fn extract_arcs(n_nodes: usize, edges: &[[u32; 2]], alive: &[bool]) -> Vec<A
             }
         }
     }
+    (offsets, inc)
+}
+
+/// Splits the edges with `alive[e]` into arcs (Def. 2.1). Arcs start at extraordinary nodes in
+/// node order, leaving through their edges in edge order; loops follow, from their smallest
+/// node. Every live edge belongs to exactly one arc.
+pub fn extract_arcs(n_nodes: usize, edges: &[[u32; 2]], alive: &[bool]) -> Vec<Arc> {
+    let (offsets, inc) = incidence(n_nodes, edges, alive);
     let valence = |n: usize| offsets[n + 1] - offsets[n];
     let other = |e: u32, n: u32| {
         let [p, q] = edges[e as usize];

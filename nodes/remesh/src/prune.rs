@@ -13,7 +13,7 @@
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
-use crestflow_geom::graph::extract_arcs;
+use crestflow_geom::graph::{extract_arcs, incidence};
 use crestflow_geom::vec3::{self, V3};
 
 use crate::features::Ord64;
@@ -93,26 +93,8 @@ pub fn prune_below_scale(
     let id = |v: u32| verts.binary_search(&v).unwrap_or(0) as u32;
     let ends: Vec<[u32; 2]> = edges.iter().map(|&[a, b]| [id(a), id(b)]).collect();
     let nv = verts.len();
-    let mut start = vec![0usize; nv + 1];
-    for &[a, b] in &ends {
-        if a != b {
-            start[a as usize + 1] += 1;
-            start[b as usize + 1] += 1;
-        }
-    }
-    for v in 0..nv {
-        start[v + 1] += start[v];
-    }
-    let mut fill = start.clone();
-    let mut inc = vec![0u32; start[nv]];
-    for (e, &[a, b]) in ends.iter().enumerate() {
-        if a != b {
-            for v in [a, b] {
-                inc[fill[v as usize]] = e as u32;
-                fill[v as usize] += 1;
-            }
-        }
-    }
+    let alive: Vec<bool> = ends.iter().map(|&[a, b]| a != b).collect();
+    let (start, inc) = incidence(nv, &ends, &alive);
     let degree: Vec<u32> = (0..nv).map(|v| (start[v + 1] - start[v]) as u32).collect();
     let mut g = Live {
         len: edges
@@ -123,7 +105,7 @@ pub fn prune_below_scale(
         weight,
         start,
         inc,
-        alive: edges.iter().map(|&[a, b]| a != b).collect(),
+        alive,
         degree,
     };
     let mut search = Search::new(nv);
