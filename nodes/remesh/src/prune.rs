@@ -7,8 +7,9 @@
 //! the arcs are shorter than any useful scale and a scale-conforming selection
 //! (`scale.conform`) can keep little of the creases. [`prune_below_scale`] reduces the graph
 //! to its lines: it drops dangling branches shorter than the scale and, weakest first, every
-//! branch that closes a cycle shorter than twice the scale. What remains is the same feature
-//! at the same place, with the arcs between real junctions.
+//! branch that closes a cycle shorter than twice the scale through a junction (a closed curve
+//! on its own, which has none, stays). What remains is the same feature at the same place,
+//! with the arcs between real junctions.
 
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
@@ -149,8 +150,10 @@ pub fn prune_below_scale(
                 continue;
             }
             let [u, v] = b.ends;
-            // A branch that is a whole short loop, or whose ends are joined by another path
-            // short enough to close a cycle below 2 × scale, goes.
+            // A short loop hanging off a junction, or a branch whose ends are joined by
+            // another path short enough to close a cycle below 2 × scale, goes. A closed curve
+            // on its own stays: it splits no line into short arcs (scale.conform resamples or
+            // drops it).
             let closes = if u == v {
                 g.degree[u as usize] > 2
             } else {

@@ -109,6 +109,10 @@ fn a_small_loop_hanging_off_a_line_goes() {
     let w = vec![1.0; edges.len()];
     let keep = prune_below_scale(&edges, &pos, &w, &vec![false; edges.len()], 1.0);
     assert_eq!(keep, [vec![true; 6], vec![false; 4]].concat());
+    // The same triangle on its own is a closed curve without a junction: it stays.
+    let alone = [[7, 8], [8, 9], [9, 7]];
+    let keep = prune_below_scale(&alone, &pos, &[1.0; 3], &[false; 3], 1.0);
+    assert_eq!(keep, [true; 3]);
 }
 
 /// All edges of an n × n vertex grid of unit spacing, and the vertex positions.

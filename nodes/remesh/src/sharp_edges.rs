@@ -49,8 +49,8 @@ pub struct SharpEdgesParams {
     pub join_angle_deg: f64,
     /// Removes the parts of the sharp-edge graph below this length, as a fraction of the
     /// bounding-box diagonal (default 0: none): dangling branches shorter than it and, weakest
-    /// first, branches closing a cycle shorter than twice it ([`crate::prune`]). Boundaries
-    /// stay. Set it to the `scale` of a following `scale.conform`, so that the zig-zags and
+    /// first, branches closing a cycle shorter than twice it through a junction
+    /// ([`crate::prune`]). Boundaries and closed curves on their own stay. Set it to the `scale` of a following `scale.conform`, so that the zig-zags and
     /// ladders of creases that cut across coarse triangles reach it as crease lines.
     pub prune_scale: f64,
 }
