@@ -77,7 +77,9 @@ pub struct ConformParams {
     /// Time limit of the exact solver per conflict component and iteration, in seconds
     /// (default 60; 0 = none). A component that runs out keeps the best solution found (never
     /// worse than greedy) and is counted in `unproven_components`; only then can the result
-    /// depend on the machine's speed.
+    /// depend on the machine's speed. Components above 2000 binaries are improved from the
+    /// greedy selection by exact solves of windows of 60 binaries within this limit (also
+    /// counted as unproven).
     pub time_limit_s: f64,
 }
 
@@ -687,7 +689,7 @@ pub struct ConformNode;
 impl NodeKind for ConformNode {
     type Params = ConformParams;
     const KIND: &'static str = "scale.conform";
-    const VERSION: u32 = 1;
+    const VERSION: u32 = 2;
     const DOC: &'static str = "Adapts a feature curve network to a prescribed scale r_min: arcs \
         resampled into edges of length in [r_min, r_max], edge and vertex conflicts detected, \
         the best conflict-free subset selected by an exact binary linear program (weights \

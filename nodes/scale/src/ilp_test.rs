@@ -266,3 +266,79 @@ fn time_limited_solve_keeps_a_feasible_solution() {
         assert!(s.unproven <= s.components);
     }
 }
+
+/// Windows as large as the component solve it whole: the brute-force optimum. Windows of three
+/// binaries stay feasible, between greedy and the optimum, and beat greedy somewhere.
+#[test]
+fn windows_are_exact_when_they_cover_the_component_and_improve_greedy_when_small() {
+    let mut improved = 0;
+    for seed in 0..60u64 {
+        let p = random_problem(seed);
+        let best = brute_force_full(&p).expect("at most 22 binaries");
+        let whole = select(&p, Method::Windows { size: 64 }, Par::Seq).unwrap();
+        assert!(
+            (whole.objective - best).abs() <= 1e-6 * best.abs().max(1.0),
+            "seed {seed}: windows {} vs brute force {best}",
+            whole.objective
+        );
+        let small = select(&p, Method::Windows { size: 3 }, Par::Seq).unwrap();
+        let greedy = select(&p, Method::Greedy, Par::Seq).unwrap();
+        assert!(
+            feasible_full(&p, &small.keep, &small.keep_vertex),
+            "seed {seed}"
+        );
+        assert!(small.objective >= greedy.objective - 1e-9, "seed {seed}");
+        assert!(small.objective <= best + 1e-9, "seed {seed}");
+        assert_eq!(small.unproven, small.components);
+        if small.objective > greedy.objective + 1e-9 {
+            improved += 1;
+        }
+    }
+    assert!(improved > 0);
+}
+
+/// A path of 3000 conflicting edges (each with its two neighbours) whose weights make greedy
+/// keep every third edge where the optimum keeps every other one: one component above
+/// EXACT_MAX_BINARIES, which the ILP method solves by windows. The optimum of a path comes from
+/// the usual dynamic programme (the best independent set).
+#[test]
+fn a_component_above_the_exact_limit_is_solved_by_windows_near_the_optimum() {
+    let n = 3000usize;
+    assert!(n > crate::ilp::EXACT_MAX_BINARIES);
+    // Heavy middles of triples: 1, 1.5, 1, 1, 1.5, 1, ... (greedy keeps the 1.5s: 1.5 per
+    // three edges; keeping both 1s of a triple gives 2).
+    let weight: Vec<f64> = (0..n).map(|e| if e % 3 == 1 { 1.5 } else { 1.0 }).collect();
+    let p = Problem {
+        n_vertices: 2 * n,
+        edges: (0..n as u32).map(|e| [2 * e, 2 * e + 1]).collect(),
+        weight: weight.clone(),
+        fixed_zero: vec![false; n],
+        short: vec![false; n],
+        edge_conflicts: (0..n as u32 - 1).map(|e| (e, e + 1)).collect(),
+        vertex_conflicts: vec![],
+        pairs: vec![],
+    };
+    // Best independent set of the path: take[e] = max(skip[e-1], ...).
+    let (mut take, mut skip) = (0.0f64, 0.0f64);
+    for &w in &weight {
+        let t = skip + w;
+        skip = skip.max(take);
+        take = t;
+    }
+    let best = take.max(skip);
+    let greedy = select(&p, Method::Greedy, Par::Seq).unwrap();
+    assert!((greedy.objective - 1.5 * (n / 3) as f64).abs() < 1e-9);
+    let ilp = select(&p, Method::Ilp, Par::Seq).unwrap();
+    assert_eq!(ilp.components, 1);
+    assert_eq!(ilp.largest_component, n);
+    assert_eq!(ilp.unproven, 1);
+    assert!(feasible_full(&p, &ilp.keep, &ilp.keep_vertex));
+    assert!(
+        ilp.objective >= 0.99 * best,
+        "windows {} vs optimum {best} (greedy {})",
+        ilp.objective,
+        greedy.objective
+    );
+    let rayon = select(&p, Method::Ilp, Par::Rayon).unwrap();
+    assert_eq!(ilp, rayon);
+}
