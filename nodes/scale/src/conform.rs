@@ -28,6 +28,7 @@ use crestflow_flow::{
     check_range, Ctx, ErrorKind, Inputs, NodeError, NodeKind, Outputs, Par, ParamIssue, Port,
     Report, Validate,
 };
+use crestflow_geom::bvh::TriangleBvh;
 use crestflow_geom::fcn::SurfacePoint;
 use crestflow_geom::vec3;
 use crestflow_geom::{CurveLabel, FeatureCurveNetwork, TriMesh};
@@ -260,7 +261,18 @@ fn curve_weights(net: &FeatureCurveNetwork) -> Vec<f64> {
 
 /// Step 1: resamples the arcs with an edge outside S. Returns the new graph, whether anything
 /// was resampled, and the number of loops dropped.
-fn resample(g: &Graph, s: &Scale, starts: usize, par: Par) -> (Graph, bool, usize) {
+/// Step 1 of Fig. 4.7: arcs with an edge out of [r_min, r_max] are resampled. New vertices
+/// go to the closest point of `mesh` to their sample: samples lie on the arc's chords, and
+/// once short edges have been collapsed into long chords over a few iterations, chords of
+/// chords left dense networks floating off the surface (the armadillo's sharp edges above 5°
+/// at 2 %: 655 of 1038 output vertices more than 1 % of the diagonal away, up to 10 %).
+fn resample(
+    g: &Graph,
+    s: &Scale,
+    starts: usize,
+    surface: &Surface<'_>,
+    par: Par,
+) -> (Graph, bool, usize) {
     let arcs = g.arcs();
     let len = |e: u32| {
         let [a, b] = g.edges[e as usize];
@@ -296,6 +308,7 @@ fn resample(g: &Graph, s: &Scale, starts: usize, par: Par) -> (Graph, bool, usiz
     };
     let mut changed = false;
     let mut loops_dropped = 0;
+    let mut new_vertices: Vec<usize> = Vec::new();
     for (k, a) in arcs.iter().enumerate() {
         match &results[k] {
             None => {
@@ -320,6 +333,7 @@ fn resample(g: &Graph, s: &Scale, starts: usize, par: Par) -> (Graph, bool, usiz
                             out.pos.push(sm[i].pos);
                             out.strength.push(sm[i].strength);
                             out.location.push(SurfacePoint::Free);
+                            new_vertices.push(out.pos.len() - 1);
                             (out.pos.len() - 1) as u32
                         }
                     };
@@ -340,6 +354,20 @@ fn resample(g: &Graph, s: &Scale, starts: usize, par: Par) -> (Graph, bool, usiz
                     out.edges.push([x, y]);
                     out.src.push(sm[(i0 + i1) / 2].src);
                 }
+            }
+        }
+    }
+    if let Some(bvh) = surface.bvh(new_vertices.is_empty()) {
+        let closest = par.map_collect(new_vertices.len(), |k| {
+            bvh.closest(out.pos[new_vertices[k]])
+        });
+        for (&v, c) in new_vertices.iter().zip(closest) {
+            if c.face != u32::MAX {
+                out.pos[v] = c.point;
+                out.location[v] = SurfacePoint::Face {
+                    f: c.face,
+                    bary: c.bary,
+                };
             }
         }
     }
@@ -364,6 +392,25 @@ fn resample(g: &Graph, s: &Scale, starts: usize, par: Par) -> (Graph, bool, usiz
         out.src = keep.iter().map(|&e| out.src[e]).collect();
     }
     (out.compact(), changed, loops_dropped)
+}
+
+/// The mesh under the network, with its closest-point hierarchy built on first use (a
+/// network whose arcs are all in scale never needs it).
+struct Surface<'a> {
+    mesh: &'a TriMesh,
+    bvh: std::sync::OnceLock<Option<TriangleBvh>>,
+}
+
+impl Surface<'_> {
+    /// The hierarchy, unless `unused` or the mesh has no faces.
+    fn bvh(&self, unused: bool) -> Option<&TriangleBvh> {
+        if unused {
+            return None;
+        }
+        self.bvh
+            .get_or_init(|| (self.mesh.n_faces() > 0).then(|| TriangleBvh::new(self.mesh)))
+            .as_ref()
+    }
 }
 
 /// The selection problem of step 3 for graph `g`.
@@ -626,6 +673,10 @@ pub fn conform_with(
         input_curves: net.curves.len(),
         ..Default::default()
     };
+    let surface = Surface {
+        mesh,
+        bvh: std::sync::OnceLock::new(),
+    };
     let method = match params.solver {
         Solver::Ilp => Method::Ilp,
         Solver::Greedy => Method::Greedy,
@@ -634,7 +685,7 @@ pub fn conform_with(
         if !keep_going(it as f32 / params.max_iterations as f32) {
             return Err(ScaleError::Cancelled);
         }
-        let (g1, resampled, dropped) = resample(&g, &s, params.loop_starts as usize, par);
+        let (g1, resampled, dropped) = resample(&g, &s, params.loop_starts as usize, &surface, par);
         stats.loops_dropped += dropped;
         let (p, n_vc) = build_problem(&g1, &s, &cw, params, par);
         let limit = (params.time_limit_s > 0.0).then_some(params.time_limit_s);
@@ -689,7 +740,7 @@ pub struct ConformNode;
 impl NodeKind for ConformNode {
     type Params = ConformParams;
     const KIND: &'static str = "scale.conform";
-    const VERSION: u32 = 2;
+    const VERSION: u32 = 3;
     const DOC: &'static str = "Adapts a feature curve network to a prescribed scale r_min: arcs \
         resampled into edges of length in [r_min, r_max], edge and vertex conflicts detected, \
         the best conflict-free subset selected by an exact binary linear program (weights \

@@ -324,3 +324,54 @@ fn pair_terms() {
     assert!((find(e0, [pts[10], pts[0]]).unwrap() - 100.0).abs() < 1e-9);
     assert!((find([pts[10], pts[0]], [pts[11], pts[10]]).unwrap() - 25.0).abs() < 1e-9);
 }
+
+/// A loop of twelve vertices of a sphere mesh around its equator, 0.52 apart, resampled at
+/// r_min = 0.15: the new vertices lie between them on the sphere's surface (on the mesh, with
+/// a face location), not on the chords, which pass up to 0.034 inside it.
+#[test]
+fn resampled_vertices_lie_on_the_mesh() {
+    let mesh = crestflow_geom::shapes::sphere(1.0, 4).unwrap();
+    let bvh = crestflow_geom::bvh::TriangleBvh::new(&mesh);
+    let pts: Vec<V3> = (0..12)
+        .map(|k| {
+            let t = std::f64::consts::TAU * k as f64 / 12.0;
+            let want = [t.cos(), t.sin(), 0.0];
+            // The mesh vertex nearest to it (so the input lies on the mesh).
+            *mesh
+                .positions
+                .iter()
+                .min_by(|a, b| vec3::dist(**a, want).total_cmp(&vec3::dist(**b, want)))
+                .unwrap()
+        })
+        .collect();
+    let idx: Vec<u32> = (0..12).collect();
+    let net = network(&pts, &[(&idx, true)]);
+    let p = ConformParams {
+        scale: 0.15,
+        relative: false,
+        ..Default::default()
+    };
+    let out = conform(&net, &mesh, &p, Par::Seq).unwrap();
+    assert_conforming(&out.network, 0.15);
+    // About 6.2 around: at least 28 edges of at most 0.225.
+    assert!(
+        out.network.vertices.len() >= 28,
+        "{}",
+        out.network.vertices.len()
+    );
+    let mut inside = 0;
+    for v in &out.network.vertices {
+        assert!(bvh.closest(v.position).distance < 1e-12, "{:?}", v.position);
+        if !pts.contains(&v.position) {
+            inside += 1;
+            assert!(
+                matches!(v.location, crestflow_geom::fcn::SurfacePoint::Face { .. }),
+                "{:?}",
+                v.location
+            );
+        }
+    }
+    assert!(inside >= 16);
+    let again = conform(&net, &mesh, &p, Par::Rayon).unwrap();
+    assert_eq!(out.network, again.network);
+}
