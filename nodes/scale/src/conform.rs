@@ -80,7 +80,7 @@ pub struct ConformParams {
     /// worse than greedy) and is counted in `unproven_components`; only then can the result
     /// depend on the machine's speed. Components above 2000 binaries are improved from the
     /// greedy selection by exact solves of windows of 60 binaries within this limit (also
-    /// counted as unproven).
+    /// counted as unproven) when the solver does not prove them whole within 5 s.
     pub time_limit_s: f64,
 }
 
@@ -740,7 +740,7 @@ pub struct ConformNode;
 impl NodeKind for ConformNode {
     type Params = ConformParams;
     const KIND: &'static str = "scale.conform";
-    const VERSION: u32 = 3;
+    const VERSION: u32 = 4;
     const DOC: &'static str = "Adapts a feature curve network to a prescribed scale r_min: arcs \
         resampled into edges of length in [r_min, r_max], edge and vertex conflicts detected, \
         the best conflict-free subset selected by an exact binary linear program (weights \

@@ -21,10 +21,11 @@
 //! between constrained edges), which are independent problems, solved in parallel and
 //! collected in component order.
 //!
-//! **Large components.** Above [`EXACT_MAX_BINARIES`] binaries (dense networks: sharp edges
-//! above a few degrees on a scanned mesh) a component is not solved whole: the greedy
-//! selection is improved window by window, each window a few dozen neighbouring binaries
-//! solved exactly with the rest fixed (large-neighbourhood search, [`Method::Windows`]).
+//! **Large components.** Above [`EXACT_MAX_BINARIES`] binaries a component gets a few seconds
+//! whole; one the solver does not prove by then (dense networks: sharp edges above a few
+//! degrees on a scanned mesh) is improved window by window, each window a few dozen
+//! neighbouring binaries solved exactly with the rest fixed (large-neighbourhood search,
+//! [`Method::Windows`]).
 
 use std::collections::BTreeMap;
 
@@ -77,8 +78,8 @@ pub enum Method {
     Greedy,
     /// Greedy, then improved by exact solves of windows of `size` neighbouring binaries with
     /// the rest fixed (large-neighbourhood search; feasible, never worse than greedy, not
-    /// proven optimal). What [`Method::Ilp`] does on components above
-    /// [`EXACT_MAX_BINARIES`].
+    /// proven optimal). What [`Method::Ilp`] goes on with on components above
+    /// [`EXACT_MAX_BINARIES`] that it does not prove within [`WHOLE_TRY_S`].
     Windows { size: usize },
 }
 
@@ -113,8 +114,8 @@ pub struct Selection {
     /// Edges fixed to 1 because no constraint involves them.
     pub free_edges: usize,
     /// Components whose optimum was not proven: the solver ran out of time, or the component
-    /// was solved by windows ([`Method::Windows`], and [`Method::Ilp`] above
-    /// [`EXACT_MAX_BINARIES`]).
+    /// was solved by windows ([`Method::Windows`], and [`Method::Ilp`] on components above
+    /// [`EXACT_MAX_BINARIES`] not proven within [`WHOLE_TRY_S`]).
     pub unproven: usize,
     /// The part of `objective` that no choice changes: weights of the free edges and the
     /// combined terms between two free edges. `objective − fixed_objective` is what the
@@ -573,12 +574,18 @@ fn solve_ilp_from(
     Ok((x, proven))
 }
 
-/// [`Method::Ilp`] does not hand a component with more binaries than this to the solver whole
-/// (it rarely proves them: on the armadillo's sharp edges above 5° or 10° at 2 %, 13–18k
-/// binaries, five seconds per iteration did not beat greedy, and a minute per iteration
-/// made the node run for minutes) but solves it by windows of [`WINDOW`] binaries
-/// ([`Method::Windows`]).
+/// [`Method::Ilp`] gives a component with more binaries than this at most
+/// [`WHOLE_TRY_S`] seconds whole; unless the solver proves it optimal by then, the rest of the
+/// time limit goes to windows of [`WINDOW`] binaries ([`Method::Windows`]) from the best
+/// selection found. Size alone does not tell: the armadillo's ridges at 1 % and 2 % make
+/// components of 2416 and 3178 binaries that the solver proves in well under a second, while
+/// its sharp edges above 15° / 10° / 5° at 2 % (5168 / 13659 / 18210 binaries) ran out of five
+/// seconds per iteration with little or nothing over greedy.
 pub const EXACT_MAX_BINARIES: usize = 2000;
+
+/// Seconds a component above [`EXACT_MAX_BINARIES`] is given whole (or the time limit, if
+/// shorter).
+pub const WHOLE_TRY_S: f64 = 5.0;
 
 /// Binaries per window when [`Method::Ilp`] meets a component above [`EXACT_MAX_BINARIES`]:
 /// on the armadillo's sharp edges above 5° at 2 % (18k binaries, a minute's limit), windows
@@ -603,12 +610,13 @@ fn solve_windows(
     ci: usize,
     size: usize,
     time_limit: Option<f64>,
+    start: Option<Vec<bool>>,
 ) -> Vec<bool> {
     let size = size.max(1);
     let started = std::time::Instant::now();
     let n = comp.vars.len();
     let loc = local(comp);
-    let mut x = solve_greedy(pr, comp);
+    let mut x = start.unwrap_or_else(|| solve_greedy(pr, comp));
     let mut cons_of: Vec<Vec<usize>> = vec![Vec::new(); n];
     let mut adj: Vec<Vec<usize>> = vec![Vec::new(); n];
     for &k in &comp.constraints {
@@ -902,9 +910,21 @@ pub fn select_with(
         let comp = &comps[ci];
         match method {
             Method::Ilp if comp.vars.len() > EXACT_MAX_BINARIES => {
-                Ok((solve_windows(&pr, comp, ci, WINDOW, time_limit), false))
+                let started = std::time::Instant::now();
+                let whole = time_limit.map_or(WHOLE_TRY_S, |t| t.min(WHOLE_TRY_S));
+                let (x, proven) = solve_ilp(&pr, comp, ci, Some(whole))?;
+                if proven {
+                    return Ok((x, true));
+                }
+                let left = time_limit.map(|t| (t - started.elapsed().as_secs_f64()).max(0.0));
+                if left == Some(0.0) {
+                    return Ok((x, false));
+                }
+                Ok((solve_windows(&pr, comp, ci, WINDOW, left, Some(x)), false))
             }
-            Method::Windows { size } => Ok((solve_windows(&pr, comp, ci, size, time_limit), false)),
+            Method::Windows { size } => {
+                Ok((solve_windows(&pr, comp, ci, size, time_limit, None), false))
+            }
             Method::Ilp => solve_ilp(&pr, comp, ci, time_limit),
             Method::BruteForce => {
                 if comp.vars.len() > 24 {
