@@ -597,13 +597,14 @@ pub const WINDOW: usize = 60;
 /// of the variable order, so that their borders move).
 const WINDOW_PASSES: usize = 4;
 
-/// A large component, solved by windows (large-neighbourhood search): from the greedy
-/// selection, each window of up to `size` neighbouring binaries (grown breadth-first over
-/// shared constraints and combined terms) is solved exactly with everything else fixed, and
-/// taken where it raises the objective; passes repeat until one improves nothing. Feasible
-/// and never worse than greedy; not proven optimal. Every window gets what is left of
-/// `time_limit` (for the whole component); while no window runs out, the result does not
-/// depend on the machine.
+/// A large component, solved by windows (large-neighbourhood search): from `start` (a
+/// feasible selection; greedy's when `None`), each window of up to `size` neighbouring
+/// binaries (grown breadth-first over shared constraints and combined terms) is solved
+/// exactly with everything else fixed, and taken where it raises the objective; passes repeat
+/// until one improves nothing. Feasible and never worse than the start; not proven optimal.
+/// Every window gets what is left of `time_limit` (for the whole component), and no window
+/// starts once it is used up; while that does not happen, the result does not depend on the
+/// machine.
 fn solve_windows(
     pr: &Prepared,
     comp: &Component,
