@@ -259,10 +259,9 @@ fn curve_weights(net: &FeatureCurveNetwork) -> Vec<f64> {
         .collect()
 }
 
-/// Step 1: resamples the arcs with an edge outside S. Returns the new graph, whether anything
-/// was resampled, and the number of loops dropped.
-/// Step 1 of Fig. 4.7: arcs with an edge out of [r_min, r_max] are resampled. New vertices
-/// go to the closest point of `mesh` to their sample: samples lie on the arc's chords, and
+/// Step 1 of Fig. 4.7: resamples the arcs with an edge outside S. Returns the new graph,
+/// whether anything was resampled, and the number of loops dropped. New vertices go to the
+/// closest point of the mesh to their sample: samples lie on the arc's chords, and
 /// once short edges have been collapsed into long chords over a few iterations, chords of
 /// chords left dense networks floating off the surface (the armadillo's sharp edges above 5°
 /// at 2 %: 655 of 1038 output vertices more than 1 % of the diagonal away, up to 10 %).
@@ -357,7 +356,7 @@ fn resample(
             }
         }
     }
-    if let Some(bvh) = surface.bvh(new_vertices.is_empty()) {
+    if let Some(bvh) = (!new_vertices.is_empty()).then(|| surface.bvh()).flatten() {
         let closest = par.map_collect(new_vertices.len(), |k| {
             bvh.closest(out.pos[new_vertices[k]])
         });
@@ -402,11 +401,8 @@ struct Surface<'a> {
 }
 
 impl Surface<'_> {
-    /// The hierarchy, unless `unused` or the mesh has no faces.
-    fn bvh(&self, unused: bool) -> Option<&TriangleBvh> {
-        if unused {
-            return None;
-        }
+    /// The hierarchy (none for a mesh without faces).
+    fn bvh(&self) -> Option<&TriangleBvh> {
         self.bvh
             .get_or_init(|| (self.mesh.n_faces() > 0).then(|| TriangleBvh::new(self.mesh)))
             .as_ref()
