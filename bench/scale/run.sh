@@ -7,7 +7,10 @@
 #
 #   bench/scale/run.sh
 #   MESHES="path/a.off path/b.off" SCALES=1,2 bench/scale/run.sh
+#   SOLVERS="microlp highs" bench/scale/run.sh   # both solvers, in one run
 #
+# HiGHS is built only with the `highs` feature (cmake, libclang and a C++ compiler: on Debian
+# `apt-get install cmake libclang-dev g++`).
 # Prints one JSON line per mesh and scale, then a Markdown table.
 set -euo pipefail
 
@@ -18,17 +21,24 @@ mkdir -p "$OUT"
 ABS=()
 for m in $MESHES; do ABS+=("$(realpath "$m")"); done
 
-cargo bench -q -p crestflow-nodes-scale --bench scale -- "${ABS[@]}" --scales "$SCALES" \
-    | tee "$OUT/results.jsonl"
+SOLVERS=${SOLVERS:-microlp}
+: > "$OUT/results.jsonl"
+for solver in $SOLVERS; do
+    case "$solver" in
+        microlp) cargo bench -q -p crestflow-nodes-scale --bench scale -- "${ABS[@]}" --scales "$SCALES" ;;
+        highs) cargo bench -q -p crestflow-nodes-scale --features highs --bench scale -- "${ABS[@]}" --scales "$SCALES" --highs ;;
+        *) echo "unknown solver $solver (microlp or highs)" >&2; exit 2 ;;
+    esac | tee -a "$OUT/results.jsonl"
+done
 
 python3 - "$OUT/results.jsonl" <<'PY'
 import json, sys
 rows = [json.loads(l) for l in open(sys.argv[1]) if l.startswith("{")]
 print()
-print("| mesh | scale % | input edges | input violations | resampled | conflicts (e/v) | components (largest) | kept ILP | kept greedy | objective ILP | objective greedy | on components ILP / greedy | output edges | check violations (ILP, greedy) | iterations | repaired | unproven | conform s | greedy s |")
-print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+print("| mesh | solver | scale % | input edges | input violations | resampled | conflicts (e/v) | components (largest) | kept ILP | kept greedy | objective ILP | objective greedy | on components ILP / greedy | output edges | check violations (ILP, greedy) | iterations | repaired | unproven | conform s | greedy s |")
+print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
 for r in rows:
-    print(f"| {r['mesh']} | {r['scale_pct']} | {r['input_edges']} | {r['input_violations']} | {r['resampled_edges']} | "
+    print(f"| {r['mesh']} | {r['solver']} | {r['scale_pct']} | {r['input_edges']} | {r['input_violations']} | {r['resampled_edges']} | "
           f"{r['conflicts']}/{r['vertex_conflicts']} | {r['components']} ({r['largest_component']}) | {r['kept_ilp']} | {r['kept_greedy']} | "
           f"{r['objective_ilp']:.1f} | {r['objective_greedy']:.1f} | "
           f"{r['objective_components_ilp']:.1f} / {r['objective_components_greedy']:.1f} | "

@@ -1,7 +1,9 @@
 //! `scale.conform` on real meshes, for `bench/scale/run.sh`.
 //!
-//!   cargo bench -p crestflow-nodes-scale --bench scale -- MESH... [--scales 0.5,1,2]
+//!   cargo bench -p crestflow-nodes-scale --bench scale -- MESH... [--scales 0.5,1,2] [--highs]
 //!
+//! `--highs` runs the exact selection with HiGHS instead of microlp (build with
+//! `--features highs`).
 //! For each mesh: principal curvatures (`curvature.polynomial`, 2 rings) and ridges
 //! (`ridges.trace`, min_strength 1.0 as in graphs/scale-remesh.ron), then for each scale
 //! (percent of the bounding-box diagonal) `scale.conform` with the exact selection and with the
@@ -43,8 +45,15 @@ fn main() {
             args.drain(i..i + 2);
         }
     }
+    let solver = match args.iter().position(|a| a == "--highs") {
+        Some(i) => {
+            args.remove(i);
+            Solver::Highs
+        }
+        None => Solver::Ilp,
+    };
     if args.is_empty() {
-        eprintln!("usage: scale MESH... [--scales 0.5,1,2]");
+        eprintln!("usage: scale MESH... [--scales 0.5,1,2] [--highs]");
         std::process::exit(2);
     }
     for path in &args {
@@ -76,6 +85,7 @@ fn main() {
         for &pct in &scales {
             let params = ConformParams {
                 scale: pct / 100.0,
+                solver,
                 ..Default::default()
             };
             let greedy_params = ConformParams {
@@ -97,7 +107,7 @@ fn main() {
             let c_in = check(&ridges.network, &mesh, &cp, Par::Rayon).expect("check");
             let s = &ilp.stats;
             println!(
-                "{{\"mesh\":\"{stem}\",\"scale_pct\":{pct},\"vertices\":{},\"prep_s\":{prep:.3},\
+                "{{\"mesh\":\"{stem}\",\"solver\":\"{solver:?}\",\"scale_pct\":{pct},\"vertices\":{},\"prep_s\":{prep:.3},\
                  \"input_edges\":{},\"input_violations\":{},\"resampled_edges\":{},\
                  \"conflicts\":{},\"vertex_conflicts\":{},\"components\":{},\
                  \"largest_component\":{},\"objective_ilp\":{:.3},\"objective_greedy\":{:.3},\

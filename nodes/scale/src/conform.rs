@@ -12,7 +12,8 @@
 //!    sharpness and l the length of the input curve of e, w_loop = α_loop on closed loops,
 //!    w_sym = 1: no symmetry input), smoothness pairs η_0 cos^p(2θ) for turning angles
 //!    θ ≤ 45° and optional parallel/orthogonal pairs η_1 cos^{2p}(2θ); the binary program with
-//!    constraints (4.3)–(4.10) solved exactly per conflict component, components in parallel.
+//!    constraints (4.3)–(4.10) solved exactly per conflict component, components in parallel
+//!    (microlp; HiGHS with `solver: Highs` in builds with the `highs` feature).
 //! 4. **Collapses**: short edges the selection drops are collapsed into their sharper end
 //!    vertex; other dropped edges are removed.
 //!
@@ -44,6 +45,9 @@ pub enum Solver {
     /// The exact binary program (good_lp + microlp), per conflict component.
     #[default]
     Ilp,
+    /// The same program solved by HiGHS (only in builds with the `highs` feature, which
+    /// needs cmake and a C++ compiler; otherwise a parameter error).
+    Highs,
     /// Heaviest edge first, kept if it conflicts with nothing kept (a baseline).
     Greedy,
 }
@@ -73,7 +77,7 @@ pub struct ConformParams {
     pub max_iterations: u32,
     /// Start samples tried when resampling a closed loop (default 4).
     pub loop_starts: u32,
-    /// `Ilp` (default) or `Greedy`.
+    /// `Ilp` (default, microlp), `Highs` (builds with the `highs` feature) or `Greedy`.
     pub solver: Solver,
     /// Time limit of the exact solver per conflict component and iteration, in seconds
     /// (default 60; 0 = none). A component that runs out keeps the best solution found (never
@@ -116,6 +120,13 @@ impl Validate for ConformParams {
         check_range(&mut v, "max_iterations", self.max_iterations, 1, 1000);
         check_range(&mut v, "loop_starts", self.loop_starts, 1, 64);
         check_range(&mut v, "time_limit_s", self.time_limit_s, 0.0, 1e6);
+        if self.solver == Solver::Highs && !ilp::Backend::Highs.available() {
+            v.push(ParamIssue::new(
+                "solver",
+                "Highs needs a build with `--features highs` (cmake and a C++ compiler); \
+                 use Ilp (microlp) or Greedy",
+            ));
+        }
         v
     }
 }
@@ -673,9 +684,10 @@ pub fn conform_with(
         mesh,
         bvh: std::sync::OnceLock::new(),
     };
-    let method = match params.solver {
-        Solver::Ilp => Method::Ilp,
-        Solver::Greedy => Method::Greedy,
+    let (method, backend) = match params.solver {
+        Solver::Ilp => (Method::Ilp, ilp::Backend::Microlp),
+        Solver::Highs => (Method::Ilp, ilp::Backend::Highs),
+        Solver::Greedy => (Method::Greedy, ilp::Backend::Microlp),
     };
     for it in 0..params.max_iterations as usize {
         if !keep_going(it as f32 / params.max_iterations as f32) {
@@ -685,7 +697,7 @@ pub fn conform_with(
         stats.loops_dropped += dropped;
         let (p, n_vc) = build_problem(&g1, &s, &cw, params, par);
         let limit = (params.time_limit_s > 0.0).then_some(params.time_limit_s);
-        let sel = ilp::select_with(&p, method, limit, par)?;
+        let sel = ilp::select_using(&p, method, backend, limit, par)?;
         stats.unproven_components += sel.unproven;
         if it == 0 {
             let greedy = ilp::select(&p, Method::Greedy, par)?;

@@ -131,6 +131,36 @@ fn a_weak_line_between_two_strong_ones_goes_but_greedy_loses_more() {
     }
 }
 
+/// `solver: Highs` gives the same network as microlp where both prove the optimum (with the
+/// `highs` feature), and is a parameter error naming the feature without it.
+#[test]
+fn highs_gives_the_same_network_or_a_parameter_error() {
+    use crestflow_flow::Validate;
+    let net = curves(&[
+        (line([0.0, 0.0, 0.0], [10.0, 0.0, 0.0], 40), 2.0),
+        (line([0.0, 0.6, 0.0], [10.0, 0.6, 0.0], 40), 2.5),
+        (line([0.0, 1.2, 0.0], [10.0, 1.2, 0.0], 40), 2.0),
+    ]);
+    let highs = ConformParams {
+        solver: Solver::Highs,
+        ..params()
+    };
+    if cfg!(feature = "highs") {
+        assert!(highs.validate().is_empty());
+        let h = conform(&net, &box_mesh(), &highs, Par::Seq).unwrap();
+        let m = conform(&net, &box_mesh(), &params(), Par::Seq).unwrap();
+        assert_eq!(h.network, m.network);
+        assert_eq!(h.stats.unproven_components, 0);
+    } else {
+        let issues = highs.validate();
+        assert_eq!(issues.len(), 1, "{issues:?}");
+        assert_eq!(issues[0].field, "solver");
+        assert!(issues[0].message.contains("--features highs"), "{issues:?}");
+        let err = conform(&net, &box_mesh(), &highs, Par::Seq).unwrap_err();
+        assert!(err.to_string().contains("--features highs"), "{err}");
+    }
+}
+
 #[test]
 fn tiny_isolated_curve_disappears() {
     let net = curves(&[

@@ -31,8 +31,8 @@ use std::collections::BTreeMap;
 
 use crestflow_flow::Par;
 use good_lp::{
-    microlp, variable, Expression, ProblemVariables, Solution, SolutionStatus, SolverModel,
-    Variable, WithInitialSolution, WithTimeLimit,
+    microlp, variable, Constraint, Expression, ProblemVariables, Solution, SolutionStatus,
+    SolverModel, Variable, WithInitialSolution, WithTimeLimit,
 };
 
 /// A selection problem over the edges of a network.
@@ -83,6 +83,28 @@ pub enum Method {
     Windows { size: usize },
 }
 
+/// Which solver runs the exact binary programs of [`Method::Ilp`] and [`Method::Windows`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Backend {
+    /// microlp (pure Rust, always built).
+    #[default]
+    Microlp,
+    /// HiGHS (C++, only with the `highs` build feature; otherwise selecting fails with
+    /// [`SelectError::Unavailable`]). Run on one thread per component, with a relative and
+    /// absolute gap of 0, so that "optimal" means proven optimal as with microlp.
+    Highs,
+}
+
+impl Backend {
+    /// Whether this build can run it.
+    pub fn available(self) -> bool {
+        match self {
+            Backend::Microlp => true,
+            Backend::Highs => cfg!(feature = "highs"),
+        }
+    }
+}
+
 /// Why a selection failed.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum SelectError {
@@ -98,6 +120,11 @@ pub enum SelectError {
         "conflict component {component} has {binaries} binaries; brute force takes at most 24"
     )]
     TooLarge { component: usize, binaries: usize },
+    #[error(
+        "the HiGHS solver is not in this build: rebuild with `--features highs` (needs cmake \
+         and a C++ compiler)"
+    )]
+    Unavailable,
 }
 
 /// The selected edges and what it took.
@@ -476,9 +503,10 @@ fn solve_ilp(
     pr: &Prepared,
     comp: &Component,
     ci: usize,
+    backend: Backend,
     time_limit: Option<f64>,
 ) -> Result<(Vec<bool>, bool), SelectError> {
-    solve_ilp_from(pr, comp, ci, time_limit, solve_greedy(pr, comp))
+    solve_ilp_from(pr, comp, ci, backend, time_limit, solve_greedy(pr, comp))
 }
 
 /// [`solve_ilp`] from the feasible warm start `start`.
@@ -486,6 +514,7 @@ fn solve_ilp_from(
     pr: &Prepared,
     comp: &Component,
     ci: usize,
+    backend: Backend,
     time_limit: Option<f64>,
     start: Vec<bool>,
 ) -> Result<(Vec<bool>, bool), SelectError> {
@@ -517,18 +546,14 @@ fn solve_ilp_from(
         let on = start[loc[&Var::Edge(i)]] && start[loc[&Var::Edge(j)]];
         init.push((*y, on as u8 as f64));
     }
-    let mut model = vars.maximise(obj).using(microlp);
-    model = model.with_initial_solution(init);
-    if let Some(t) = time_limit {
-        model = model.with_time_limit(t);
-    }
+    let mut cons: Vec<Constraint> = Vec::new();
     let (cl, covered) = cliques(pr, comp, &loc);
     for q in &cl {
         let mut e = Expression::from(0.0);
         for &v in q {
             e += xs[v];
         }
-        model = model.with(e.leq(1.0));
+        cons.push(e.leq(1.0));
     }
     for (t, &k) in comp.constraints.iter().enumerate() {
         if covered[t] {
@@ -539,15 +564,44 @@ fn solve_ilp_from(
         for &(v, a) in &c.terms {
             e += a * xs[loc[&v]];
         }
-        model = model.with(e.leq(c.rhs));
+        cons.push(e.leq(c.rhs));
     }
     for (y, &k) in ys.iter().zip(&comp.pairs) {
         let (i, j, _) = pr.pairs[k];
-        model = model.with(Expression::from(*y).leq(xs[loc[&Var::Edge(i)]]));
-        model = model.with(Expression::from(*y).leq(xs[loc[&Var::Edge(j)]]));
+        cons.push(Expression::from(*y).leq(xs[loc[&Var::Edge(i)]]));
+        cons.push(Expression::from(*y).leq(xs[loc[&Var::Edge(j)]]));
     }
-    let sol = match model.solve() {
-        Ok(sol) => sol,
+    let problem = vars.maximise(obj);
+    let solved = match backend {
+        Backend::Microlp => run_model(problem.using(microlp), Some(init), time_limit, cons, &xs)
+            .map(|(x, status)| (x, matches!(status, SolutionStatus::Optimal))),
+        #[cfg(feature = "highs")]
+        Backend::Highs => {
+            // One thread: components already run in parallel, and HiGHS's own threads would
+            // make the search depend on the machine. Gaps of 0: proven optimal, not within
+            // HiGHS's default 0.01 %. No warm start: with the greedy selection as its start,
+            // HiGHS called a component of 70 binaries (cgal_bunny00 at 2 %) optimal at that
+            // start, 1.5 % below microlp's optimum (right with presolve off, or without the
+            // start; without it both solvers agree on all 342 components of bench/scale).
+            let model = good_lp::solvers::highs::highs(problem)
+                .set_threads(1)
+                .set_parallel(good_lp::solvers::highs::HighsParallelType::Off)
+                .set_option("mip_rel_gap", 0.0)
+                .set_option("mip_abs_gap", 1e-9);
+            // HiGHS reports "optimal" with the gap it closed, and good_lp calls any gap above
+            // 0 a gap limit: here that means within the 1e-9 asked for, so proven.
+            run_model(model, None, time_limit, cons, &xs).map(|(x, status)| {
+                (
+                    x,
+                    matches!(status, SolutionStatus::Optimal | SolutionStatus::GapLimit),
+                )
+            })
+        }
+        #[cfg(not(feature = "highs"))]
+        Backend::Highs => return Err(SelectError::Unavailable),
+    };
+    let (x, proven) = match solved {
+        Ok(r) => r,
         // Out of time before the solver reported a solution: keep the warm start.
         Err(_) if time_limit.is_some() => return Ok((start, false)),
         Err(e) => {
@@ -558,8 +612,6 @@ fn solve_ilp_from(
             })
         }
     };
-    let proven = matches!(sol.status(), SolutionStatus::Optimal);
-    let x: Vec<bool> = xs.iter().map(|&v| sol.value(v) > 0.5).collect();
     if !feasible(pr, comp, &loc, &x) {
         return Err(SelectError::Solver {
             component: ci,
@@ -572,6 +624,35 @@ fn solve_ilp_from(
         return Ok((start, proven));
     }
     Ok((x, proven))
+}
+
+/// Solves `model` (from the warm start `init`, if any) under `cons`; the binaries `xs`
+/// rounded, and the solver's status.
+fn run_model<M>(
+    model: M,
+    init: Option<Vec<(Variable, f64)>>,
+    time_limit: Option<f64>,
+    cons: Vec<Constraint>,
+    xs: &[Variable],
+) -> Result<(Vec<bool>, SolutionStatus), M::Error>
+where
+    M: SolverModel + WithInitialSolution + WithTimeLimit,
+{
+    let mut model = model;
+    if let Some(init) = init {
+        model = model.with_initial_solution(init);
+    }
+    if let Some(t) = time_limit {
+        model = model.with_time_limit(t);
+    }
+    for c in cons {
+        model = model.with(c);
+    }
+    let sol = model.solve()?;
+    Ok((
+        xs.iter().map(|&v| sol.value(v) > 0.5).collect(),
+        sol.status(),
+    ))
 }
 
 /// [`Method::Ilp`] gives a component with more binaries than this at most
@@ -610,6 +691,7 @@ fn solve_windows(
     comp: &Component,
     ci: usize,
     size: usize,
+    backend: Backend,
     time_limit: Option<f64>,
     start: Option<Vec<bool>>,
 ) -> Vec<bool> {
@@ -675,15 +757,28 @@ fn solve_windows(
                 }
                 None => None,
             };
-            improved |= improve_window(
-                pr, comp, ci, &loc, &cons_of, &pairs_of, &window, &mut slot, &mut x, left,
-            );
+            let w = Window {
+                loc: &loc,
+                cons_of: &cons_of,
+                pairs_of: &pairs_of,
+                members: &window,
+            };
+            improved |= improve_window(pr, comp, ci, &w, &mut slot, &mut x, backend, left);
         }
         if !improved {
             break;
         }
     }
     x
+}
+
+/// A window of a component in [`solve_windows`]: its binaries (local indices) and the
+/// component's lookup tables.
+struct Window<'a> {
+    loc: &'a BTreeMap<Var, usize>,
+    cons_of: &'a [Vec<usize>],
+    pairs_of: &'a [Vec<usize>],
+    members: &'a [usize],
 }
 
 /// Solves the binaries of `window` (local indices) exactly with the others fixed at `x`, and
@@ -694,14 +789,13 @@ fn improve_window(
     pr: &Prepared,
     comp: &Component,
     ci: usize,
-    loc: &BTreeMap<Var, usize>,
-    cons_of: &[Vec<usize>],
-    pairs_of: &[Vec<usize>],
-    window: &[usize],
+    w: &Window<'_>,
     slot: &mut [usize],
     x: &mut [bool],
+    backend: Backend,
     time_limit: Option<f64>,
 ) -> bool {
+    let (loc, cons_of, pairs_of, window) = (w.loc, w.cons_of, w.pairs_of, w.members);
     // The window's binaries renumbered 0.. as a problem of its own: edges keep their linear
     // coefficient plus the combined terms with partners fixed at 1 outside the window;
     // constraints move the fixed binaries' part to the right-hand side.
@@ -776,7 +870,7 @@ fn improve_window(
     let sub_loc = local(&sub_comp);
     let before = comp_objective(&sub, &sub_comp, &sub_loc, &start);
     // A window the solver fails on keeps its part of the (feasible) selection.
-    let Ok((y, _)) = solve_ilp_from(&sub, &sub_comp, ci, time_limit, start) else {
+    let Ok((y, _)) = solve_ilp_from(&sub, &sub_comp, ci, backend, time_limit, start) else {
         return false;
     };
     if comp_objective(&sub, &sub_comp, &sub_loc, &y) > before + 1e-9 {
@@ -905,6 +999,20 @@ pub fn select_with(
     time_limit: Option<f64>,
     par: Par,
 ) -> Result<Selection, SelectError> {
+    select_using(p, method, Backend::Microlp, time_limit, par)
+}
+
+/// [`select_with`] with the exact programs run by `backend`.
+pub fn select_using(
+    p: &Problem,
+    method: Method,
+    backend: Backend,
+    time_limit: Option<f64>,
+    par: Par,
+) -> Result<Selection, SelectError> {
+    if matches!(method, Method::Ilp | Method::Windows { .. }) && !backend.available() {
+        return Err(SelectError::Unavailable);
+    }
     let pr = prepare(p);
     let comps = components(p, &pr);
     let sols: Vec<Result<(Vec<bool>, bool), SelectError>> = par.map_collect(comps.len(), |ci| {
@@ -913,7 +1021,7 @@ pub fn select_with(
             Method::Ilp if comp.vars.len() > EXACT_MAX_BINARIES => {
                 let started = std::time::Instant::now();
                 let whole = time_limit.map_or(WHOLE_TRY_S, |t| t.min(WHOLE_TRY_S));
-                let (x, proven) = solve_ilp(&pr, comp, ci, Some(whole))?;
+                let (x, proven) = solve_ilp(&pr, comp, ci, backend, Some(whole))?;
                 if proven {
                     return Ok((x, true));
                 }
@@ -921,12 +1029,16 @@ pub fn select_with(
                 if left == Some(0.0) {
                     return Ok((x, false));
                 }
-                Ok((solve_windows(&pr, comp, ci, WINDOW, left, Some(x)), false))
+                Ok((
+                    solve_windows(&pr, comp, ci, WINDOW, backend, left, Some(x)),
+                    false,
+                ))
             }
-            Method::Windows { size } => {
-                Ok((solve_windows(&pr, comp, ci, size, time_limit, None), false))
-            }
-            Method::Ilp => solve_ilp(&pr, comp, ci, time_limit),
+            Method::Windows { size } => Ok((
+                solve_windows(&pr, comp, ci, size, backend, time_limit, None),
+                false,
+            )),
+            Method::Ilp => solve_ilp(&pr, comp, ci, backend, time_limit),
             Method::BruteForce => {
                 if comp.vars.len() > 24 {
                     Err(SelectError::TooLarge {

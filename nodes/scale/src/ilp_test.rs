@@ -2,7 +2,8 @@
 //! its answer is known to be worse.
 
 use crate::ilp::{
-    brute_force_full, feasible_full, objective, select, select_with, Method, Problem,
+    brute_force_full, feasible_full, objective, select, select_using, select_with, Backend, Method,
+    Problem,
 };
 use crestflow_flow::Par;
 
@@ -363,4 +364,76 @@ fn a_path_above_the_exact_limit_is_solved_by_windows_near_the_optimum_and_whole_
         "{} vs {best}",
         ilp.objective
     );
+}
+
+/// Without the `highs` build feature, asking for HiGHS is an error that says how to get it
+/// (greedy needs no solver and still runs).
+#[cfg(not(feature = "highs"))]
+#[test]
+fn highs_without_the_feature_is_a_clear_error() {
+    let p = random_problem(3);
+    assert!(!Backend::Highs.available());
+    let err = select_using(&p, Method::Ilp, Backend::Highs, None, Par::Seq).unwrap_err();
+    assert_eq!(err, crate::ilp::SelectError::Unavailable);
+    assert!(err.to_string().contains("--features highs"), "{err}");
+    let err = select_using(
+        &p,
+        Method::Windows { size: 4 },
+        Backend::Highs,
+        None,
+        Par::Seq,
+    );
+    assert_eq!(err.unwrap_err(), crate::ilp::SelectError::Unavailable);
+    let greedy = select_using(&p, Method::Greedy, Backend::Highs, None, Par::Seq).unwrap();
+    assert_eq!(greedy, select(&p, Method::Greedy, Par::Seq).unwrap());
+}
+
+/// HiGHS reaches the brute-force optimum on the same 100 instances as microlp, with the same
+/// bits on one thread and on the pool, and proves the 3000-edge path (where its windows also
+/// reach the optimum of the path's dynamic programme).
+#[cfg(feature = "highs")]
+#[test]
+fn highs_matches_brute_force_and_solves_the_long_path() {
+    assert!(Backend::Highs.available());
+    for seed in 0..100u64 {
+        let p = random_problem(seed);
+        let best = brute_force_full(&p).expect("at most 22 binaries");
+        let h = select_using(&p, Method::Ilp, Backend::Highs, None, Par::Seq).unwrap();
+        assert!(
+            (h.objective - best).abs() <= 1e-6 * best.abs().max(1.0),
+            "seed {seed}: HiGHS {} vs brute force {best}",
+            h.objective
+        );
+        assert!(feasible_full(&p, &h.keep, &h.keep_vertex), "seed {seed}");
+        assert_eq!(h.unproven, 0);
+        let r = select_using(&p, Method::Ilp, Backend::Highs, None, Par::Rayon).unwrap();
+        assert_eq!(h, r, "seed {seed}");
+    }
+    let n = 3000usize;
+    let weight: Vec<f64> = (0..n).map(|e| if e % 3 == 1 { 1.5 } else { 1.0 }).collect();
+    // The best independent set of the path, by dynamic programming.
+    let (mut take, mut skip) = (0.0f64, 0.0f64);
+    for &w in &weight {
+        let t = skip + w;
+        skip = skip.max(take);
+        take = t;
+    }
+    let best = take.max(skip);
+    let p = Problem {
+        n_vertices: 2 * n,
+        edges: (0..n as u32).map(|e| [2 * e, 2 * e + 1]).collect(),
+        weight,
+        fixed_zero: vec![false; n],
+        short: vec![false; n],
+        edge_conflicts: (0..n as u32 - 1).map(|e| (e, e + 1)).collect(),
+        vertex_conflicts: vec![],
+        pairs: vec![],
+    };
+    let whole = select_using(&p, Method::Ilp, Backend::Highs, None, Par::Seq).unwrap();
+    assert_eq!(whole.unproven, 0);
+    assert!((whole.objective - best).abs() < 1e-9, "{}", whole.objective);
+    let size = crate::ilp::WINDOW;
+    let w = select_using(&p, Method::Windows { size }, Backend::Highs, None, Par::Seq).unwrap();
+    assert!(feasible_full(&p, &w.keep, &w.keep_vertex));
+    assert!(w.objective >= 0.99 * best, "{}", w.objective);
 }

@@ -3,7 +3,8 @@
 //!
 //! - `scale.conform` ([`conform`]): resampling, conflict detection, exact selection of the best
 //!   conflict-free subset by a binary linear program ([`ilp`], good_lp with the pure-Rust
-//!   microlp solver), short-edge collapses, iterated until stable (Fig. 4.7).
+//!   microlp solver, or HiGHS in builds with the `highs` feature), short-edge collapses,
+//!   iterated until stable (Fig. 4.7).
 //! - `scale.check` ([`check`]): counts the violations of scale conformity of any network.
 //!
 //! The geometric predicates shared by both are in [`conflicts`]; arc resampling in
