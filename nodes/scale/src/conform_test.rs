@@ -104,15 +104,21 @@ fn the_weaker_of_two_close_parallel_lines_goes() {
     assert_eq!(out.network.curves.len(), 2);
 }
 
+/// Three parallel lines 0.6 apart (r_min 1): the middle one (strength 2.5) conflicts with both
+/// outer ones (strength 2 each), which do not conflict with each other.
+fn three_lines() -> FeatureCurveNetwork {
+    curves(&[
+        (line([0.0, 0.0, 0.0], [10.0, 0.0, 0.0], 40), 2.0),
+        (line([0.0, 0.6, 0.0], [10.0, 0.6, 0.0], 40), 2.5),
+        (line([0.0, 1.2, 0.0], [10.0, 1.2, 0.0], 40), 2.0),
+    ])
+}
+
 #[test]
 fn a_weak_line_between_two_strong_ones_goes_but_greedy_loses_more() {
     // Middle line (strength 2.5) conflicts with both outer ones (strength 2 each), which do not
     // conflict with each other: the optimum keeps the outer lines, greedy the middle one.
-    let net = curves(&[
-        (line([0.0, 0.0, 0.0], [10.0, 0.0, 0.0], 40), 2.0),
-        (line([0.0, 0.6, 0.0], [10.0, 0.6, 0.0], 40), 2.5),
-        (line([0.0, 1.2, 0.0], [10.0, 1.2, 0.0], 40), 2.0),
-    ]);
+    let net = three_lines();
     let out = conform(&net, &box_mesh(), &params(), Par::Seq).unwrap();
     assert_conforming(&out.network, 1.0);
     assert!(out.stats.first_objective > out.stats.greedy_objective);
@@ -136,11 +142,7 @@ fn a_weak_line_between_two_strong_ones_goes_but_greedy_loses_more() {
 #[test]
 fn highs_gives_the_same_network_or_a_parameter_error() {
     use crestflow_flow::Validate;
-    let net = curves(&[
-        (line([0.0, 0.0, 0.0], [10.0, 0.0, 0.0], 40), 2.0),
-        (line([0.0, 0.6, 0.0], [10.0, 0.6, 0.0], 40), 2.5),
-        (line([0.0, 1.2, 0.0], [10.0, 1.2, 0.0], 40), 2.0),
-    ]);
+    let net = three_lines();
     let highs = ConformParams {
         solver: Solver::Highs,
         ..params()

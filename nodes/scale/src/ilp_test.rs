@@ -298,6 +298,30 @@ fn windows_are_exact_when_they_cover_the_component_and_improve_greedy_when_small
     assert!(improved > 0);
 }
 
+/// A path of `n` edges, each in conflict with its two neighbours, weighted 1, 1.5, 1, 1, 1.5,
+/// 1, ... (greedy keeps the heavy middles: 1.5 per three edges; both 1s of a triple give 2),
+/// and its optimum by the dynamic programme for the best independent set of a path.
+fn conflict_path(n: usize) -> (Problem, f64) {
+    let weight: Vec<f64> = (0..n).map(|e| if e % 3 == 1 { 1.5 } else { 1.0 }).collect();
+    let (mut take, mut skip) = (0.0f64, 0.0f64);
+    for &w in &weight {
+        let t = skip + w;
+        skip = skip.max(take);
+        take = t;
+    }
+    let p = Problem {
+        n_vertices: 2 * n,
+        edges: (0..n as u32).map(|e| [2 * e, 2 * e + 1]).collect(),
+        weight,
+        fixed_zero: vec![false; n],
+        short: vec![false; n],
+        edge_conflicts: (0..n as u32 - 1).map(|e| (e, e + 1)).collect(),
+        vertex_conflicts: vec![],
+        pairs: vec![],
+    };
+    (p, take.max(skip))
+}
+
 /// A path of 3000 conflicting edges (each with its two neighbours) whose weights make greedy
 /// keep the heavy middle of every triple: one component above EXACT_MAX_BINARIES. Windows of
 /// the default size get within 1 % of the optimum (the usual dynamic programme for the best
@@ -307,27 +331,7 @@ fn windows_are_exact_when_they_cover_the_component_and_improve_greedy_when_small
 fn a_path_above_the_exact_limit_is_solved_by_windows_near_the_optimum_and_whole_exactly() {
     let n = 3000usize;
     assert!(n > crate::ilp::EXACT_MAX_BINARIES);
-    // Heavy middles of triples: 1, 1.5, 1, 1, 1.5, 1, ... (greedy keeps the 1.5s: 1.5 per
-    // three edges; keeping both 1s of a triple gives 2).
-    let weight: Vec<f64> = (0..n).map(|e| if e % 3 == 1 { 1.5 } else { 1.0 }).collect();
-    let p = Problem {
-        n_vertices: 2 * n,
-        edges: (0..n as u32).map(|e| [2 * e, 2 * e + 1]).collect(),
-        weight: weight.clone(),
-        fixed_zero: vec![false; n],
-        short: vec![false; n],
-        edge_conflicts: (0..n as u32 - 1).map(|e| (e, e + 1)).collect(),
-        vertex_conflicts: vec![],
-        pairs: vec![],
-    };
-    // Best independent set of the path: take[e] = max(skip[e-1], ...).
-    let (mut take, mut skip) = (0.0f64, 0.0f64);
-    for &w in &weight {
-        let t = skip + w;
-        skip = skip.max(take);
-        take = t;
-    }
-    let best = take.max(skip);
+    let (p, best) = conflict_path(n);
     let greedy = select(&p, Method::Greedy, Par::Seq).unwrap();
     assert!((greedy.objective - 1.5 * (n / 3) as f64).abs() < 1e-9);
     let windows = select(
@@ -409,26 +413,7 @@ fn highs_matches_brute_force_and_solves_the_long_path() {
         let r = select_using(&p, Method::Ilp, Backend::Highs, None, Par::Rayon).unwrap();
         assert_eq!(h, r, "seed {seed}");
     }
-    let n = 3000usize;
-    let weight: Vec<f64> = (0..n).map(|e| if e % 3 == 1 { 1.5 } else { 1.0 }).collect();
-    // The best independent set of the path, by dynamic programming.
-    let (mut take, mut skip) = (0.0f64, 0.0f64);
-    for &w in &weight {
-        let t = skip + w;
-        skip = skip.max(take);
-        take = t;
-    }
-    let best = take.max(skip);
-    let p = Problem {
-        n_vertices: 2 * n,
-        edges: (0..n as u32).map(|e| [2 * e, 2 * e + 1]).collect(),
-        weight,
-        fixed_zero: vec![false; n],
-        short: vec![false; n],
-        edge_conflicts: (0..n as u32 - 1).map(|e| (e, e + 1)).collect(),
-        vertex_conflicts: vec![],
-        pairs: vec![],
-    };
+    let (p, best) = conflict_path(3000);
     let whole = select_using(&p, Method::Ilp, Backend::Highs, None, Par::Seq).unwrap();
     assert_eq!(whole.unproven, 0);
     assert!((whole.objective - best).abs() < 1e-9, "{}", whole.objective);

@@ -6,24 +6,25 @@ use crestflow_nodes_curvature::{polynomial_curvature, PolynomialParams};
 use crestflow_nodes_ridges::{trace, TraceParams};
 use crestflow_nodes_scale::{check, conform, CheckParams, ConformParams};
 
+/// A mesh of ../shared/data/meshes and its ridges (min_strength 1, as in the graphs).
+fn mesh_and_ridges(name: &str) -> (crestflow_geom::TriMesh, crestflow_geom::FeatureCurveNetwork) {
+    let path = format!(
+        "{}/../../../shared/data/meshes/{name}",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let mesh = load_mesh(&path, &LoadOptions::default()).unwrap().mesh;
+    let curv = polynomial_curvature(&mesh, &PolynomialParams::default(), Par::Rayon).unwrap();
+    let params = TraceParams {
+        min_strength: 1.0,
+        ..Default::default()
+    };
+    let ridges = trace(&mesh, &curv.field, &params, Par::Rayon).unwrap();
+    (mesh, ridges.network)
+}
+
 #[test]
 fn fandisk_ridges_become_scale_conforming() {
-    let path = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../../shared/data/meshes/cad/cgal_fandisk.off"
-    );
-    let mesh = load_mesh(path, &LoadOptions::default()).unwrap().mesh;
-    let curv = polynomial_curvature(&mesh, &PolynomialParams::default(), Par::Rayon).unwrap();
-    let ridges = trace(
-        &mesh,
-        &curv.field,
-        &TraceParams {
-            min_strength: 1.0,
-            ..Default::default()
-        },
-        Par::Rayon,
-    )
-    .unwrap();
+    let (mesh, ridges) = mesh_and_ridges("cad/cgal_fandisk.off");
     let mut kept = Vec::new();
     for scale in [0.01, 0.02] {
         let cp = CheckParams {
@@ -31,17 +32,12 @@ fn fandisk_ridges_become_scale_conforming() {
             ..Default::default()
         };
         // The raw ridges are not scale conforming.
-        assert!(
-            check(&ridges.network, &mesh, &cp, Par::Rayon)
-                .unwrap()
-                .violations()
-                > 0
-        );
+        assert!(check(&ridges, &mesh, &cp, Par::Rayon).unwrap().violations() > 0);
         let params = ConformParams {
             scale,
             ..Default::default()
         };
-        let out = conform(&ridges.network, &mesh, &params, Par::Rayon).unwrap();
+        let out = conform(&ridges, &mesh, &params, Par::Rayon).unwrap();
         let r = check(&out.network, &mesh, &cp, Par::Rayon).unwrap();
         assert_eq!(r.violations(), 0, "scale {scale}: {}", r.summary());
         let s = &out.stats;
@@ -62,22 +58,7 @@ fn fandisk_ridges_become_scale_conforming() {
 #[test]
 fn highs_and_microlp_agree_on_the_bunny() {
     use crestflow_nodes_scale::Solver;
-    let path = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../../shared/data/meshes/organic/cgal_bunny00.off"
-    );
-    let mesh = load_mesh(path, &LoadOptions::default()).unwrap().mesh;
-    let curv = polynomial_curvature(&mesh, &PolynomialParams::default(), Par::Rayon).unwrap();
-    let ridges = trace(
-        &mesh,
-        &curv.field,
-        &TraceParams {
-            min_strength: 1.0,
-            ..Default::default()
-        },
-        Par::Rayon,
-    )
-    .unwrap();
+    let (mesh, ridges) = mesh_and_ridges("organic/cgal_bunny00.off");
     for scale in [0.005, 0.01, 0.02] {
         let params = ConformParams {
             scale,
@@ -87,8 +68,8 @@ fn highs_and_microlp_agree_on_the_bunny() {
             solver: Solver::Highs,
             ..params.clone()
         };
-        let m = conform(&ridges.network, &mesh, &params, Par::Rayon).unwrap();
-        let h = conform(&ridges.network, &mesh, &highs, Par::Rayon).unwrap();
+        let m = conform(&ridges, &mesh, &params, Par::Rayon).unwrap();
+        let h = conform(&ridges, &mesh, &highs, Par::Rayon).unwrap();
         assert_eq!(m.stats.unproven_components, 0);
         assert_eq!(h.stats.unproven_components, 0);
         let (a, b) = (m.stats.first_objective, h.stats.first_objective);
