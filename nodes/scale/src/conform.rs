@@ -123,8 +123,8 @@ impl Validate for ConformParams {
         if self.solver == Solver::Highs && !ilp::Backend::Highs.available() {
             v.push(ParamIssue::new(
                 "solver",
-                "Highs needs a build with `--features highs` (cmake and a C++ compiler); \
-                 use Ilp (microlp) or Greedy",
+                "Highs needs a build with `--features highs` (cmake, libclang and a C++ \
+                 compiler); use Ilp (microlp) or Greedy",
             ));
         }
         v

@@ -121,8 +121,8 @@ pub enum SelectError {
     )]
     TooLarge { component: usize, binaries: usize },
     #[error(
-        "the HiGHS solver is not in this build: rebuild with `--features highs` (needs cmake \
-         and a C++ compiler)"
+        "the HiGHS solver is not in this build: rebuild with `--features highs` (needs cmake, \
+         libclang and a C++ compiler)"
     )]
     Unavailable,
 }
@@ -509,7 +509,8 @@ fn solve_ilp(
     solve_ilp_from(pr, comp, ci, backend, time_limit, solve_greedy(pr, comp))
 }
 
-/// [`solve_ilp`] from the feasible warm start `start`.
+/// [`solve_ilp`] from the feasible selection `start`: microlp's warm start, and for both
+/// back ends the result when the solver stops without a better one.
 fn solve_ilp_from(
     pr: &Prepared,
     comp: &Component,
