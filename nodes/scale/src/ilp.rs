@@ -758,28 +758,15 @@ fn solve_windows(
                 }
                 None => None,
             };
-            let w = Window {
-                loc: &loc,
-                cons_of: &cons_of,
-                pairs_of: &pairs_of,
-                members: &window,
-            };
-            improved |= improve_window(pr, comp, ci, &w, &mut slot, &mut x, backend, left);
+            improved |= improve_window(
+                pr, comp, ci, &loc, &cons_of, &pairs_of, &window, &mut slot, &mut x, backend, left,
+            );
         }
         if !improved {
             break;
         }
     }
     x
-}
-
-/// A window of a component in [`solve_windows`]: its binaries (local indices) and the
-/// component's lookup tables.
-struct Window<'a> {
-    loc: &'a BTreeMap<Var, usize>,
-    cons_of: &'a [Vec<usize>],
-    pairs_of: &'a [Vec<usize>],
-    members: &'a [usize],
 }
 
 /// Solves the binaries of `window` (local indices) exactly with the others fixed at `x`, and
@@ -790,13 +777,15 @@ fn improve_window(
     pr: &Prepared,
     comp: &Component,
     ci: usize,
-    w: &Window<'_>,
+    loc: &BTreeMap<Var, usize>,
+    cons_of: &[Vec<usize>],
+    pairs_of: &[Vec<usize>],
+    window: &[usize],
     slot: &mut [usize],
     x: &mut [bool],
     backend: Backend,
     time_limit: Option<f64>,
 ) -> bool {
-    let (loc, cons_of, pairs_of, window) = (w.loc, w.cons_of, w.pairs_of, w.members);
     // The window's binaries renumbered 0.. as a problem of its own: edges keep their linear
     // coefficient plus the combined terms with partners fixed at 1 outside the window;
     // constraints move the fixed binaries' part to the right-hand side.
