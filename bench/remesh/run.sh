@@ -46,6 +46,16 @@ if [ "${CONFORMING:-1}" != "0" ]; then
     cargo bench -q -p crestflow-nodes-remesh --bench remesh -- "$OUT" "${ABS[@]}" --targets "$TARGETS" \
         --conforming | tee -a "$OUT/ours.jsonl"
 fi
+# Relaxation towards Voronoi-cell centroids (`relaxation: Lloyd`) for the plain and the
+# conforming method (methods crestflow_lloyd, crestflow_conforming_lloyd); LLOYD=0 skips it.
+if [ "${LLOYD:-1}" != "0" ]; then
+    cargo bench -q -p crestflow-nodes-remesh --bench remesh -- "$OUT" "${ABS[@]}" --targets "$TARGETS" \
+        --lloyd | tee -a "$OUT/ours.jsonl"
+    if [ "${CONFORMING:-1}" != "0" ]; then
+        cargo bench -q -p crestflow-nodes-remesh --bench remesh -- "$OUT" "${ABS[@]}" --targets "$TARGETS" \
+            --conforming --lloyd | tee -a "$OUT/ours.jsonl"
+    fi
+fi
 : > "$OUT/results.jsonl"
 for m in "${ABS[@]}"; do
     "$PYTHON" bench/remesh/peer.py "$m" --targets "$TARGETS" --ours "$OUT/ours.jsonl" \

@@ -2,12 +2,13 @@
 //!
 //!   cargo bench -p crestflow-nodes-remesh --bench remesh -- OUT_DIR MESH... [--targets 1,2]
 //!       [--feature-tolerance 0.002] [--iterations 10] [--smoothing-steps 5]
-//!       [--feature-grading 0] [--conforming]
+//!       [--feature-grading 0] [--conforming] [--lloyd]
 //!
 //! With `--conforming` (method `crestflow_conforming`) the features are not every sharp edge
 //! but the scale-conforming subset of them: `remesh.sharp_edges` pruned at the target,
 //! `scale.conform` at r_min = the target, then `remesh.isotropic` constrained by that network
-//! only (its own sharp-edge detection off); the times cover all three steps.
+//! only (its own sharp-edge detection off); the times cover all three steps. With `--lloyd`
+//! the remeshing runs with `relaxation: Lloyd` and the method's name ends in `_lloyd`.
 //!
 //! For each mesh and target (percent of the bounding-box diagonal): the median of 3 runs of
 //! `remesh.isotropic` (default parameters: 10 rounds, sharp edges > 30° kept) at 1 thread
@@ -18,7 +19,9 @@ use std::time::Instant;
 
 use crestflow_flow::{Par, ReportValue};
 use crestflow_geom::io::{load_mesh, save_mesh_obj, LoadOptions};
-use crestflow_nodes_remesh::{isotropic, sharp_edges, IsotropicParams, SharpEdgesParams};
+use crestflow_nodes_remesh::{
+    isotropic, sharp_edges, IsotropicParams, Relaxation, SharpEdgesParams,
+};
 use crestflow_nodes_scale::{conform, ConformParams};
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -56,6 +59,8 @@ fn main() {
     let mut smoothing_steps = IsotropicParams::default().smoothing_steps;
     let conforming = args.iter().any(|a| a == "--conforming");
     args.retain(|a| a != "--conforming");
+    let lloyd = args.iter().any(|a| a == "--lloyd");
+    args.retain(|a| a != "--lloyd");
     if let Some(i) = args.iter().position(|a| a == "--smoothing-steps") {
         if let Some(t) = args.get(i + 1).and_then(|t| t.parse().ok()) {
             smoothing_steps = t;
@@ -100,6 +105,11 @@ fn main() {
                 smoothing_steps,
                 feature_grading,
                 sharp_edges: !conforming,
+                relaxation: if lloyd {
+                    Relaxation::Lloyd
+                } else {
+                    Relaxation::Centroids
+                },
                 ..Default::default()
             };
             let sharp_params = SharpEdgesParams {
@@ -149,6 +159,11 @@ fn main() {
                 "crestflow_graded"
             } else {
                 "crestflow"
+            };
+            let method = if lloyd {
+                format!("{method}_lloyd")
+            } else {
+                method.to_string()
             };
             let file = out_dir.join(format!("{stem}.{method}_{pct}pct.obj"));
             if let Err(e) = save_mesh_obj(&file, &out.mesh, None) {

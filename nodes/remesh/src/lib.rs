@@ -25,7 +25,9 @@ pub mod prune;
 pub mod sharp_edges;
 pub mod tips;
 
-pub use isotropic::{isotropic, IsotropicNode, IsotropicParams, RemeshError, RemeshOutput};
+pub use isotropic::{
+    isotropic, IsotropicNode, IsotropicParams, Relaxation, RemeshError, RemeshOutput,
+};
 pub use sharp_edges::{sharp_edges, SharpEdgesNode, SharpEdgesParams};
 
 /// Adds this family's node kinds to `registry`.

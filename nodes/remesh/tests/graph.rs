@@ -98,3 +98,34 @@ fn scale_remesh_cad_graph_runs_on_the_fandisk() {
     assert!(out.join("render.png").exists());
     let _ = std::fs::remove_dir_all(&out);
 }
+
+/// `relaxation` takes `Centroids` or `Lloyd`; anything else is a parameter error on its line.
+#[test]
+fn relaxation_names_are_checked_when_the_graph_loads() {
+    let mut reg = Registry::new();
+    crestflow_nodes_io::register(&mut reg);
+    crestflow_nodes_remesh::register(&mut reg);
+    let dir = std::env::temp_dir().join(format!("crestflow-relaxation-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let graph = |relaxation: &str| {
+        format!(
+            "Graph(nodes: {{\n  \"load\": (kind: \"io.load_mesh\", params: (path: \"m.off\")),\n  \
+             \"remesh\": (kind: \"remesh.isotropic\",\n    params: (relaxation: {relaxation}),\n    \
+             inputs: {{ \"mesh\": \"load.mesh\" }}),\n}})\n"
+        )
+    };
+    let good = dir.join("good.ron");
+    std::fs::write(&good, graph("Lloyd")).unwrap();
+    assert!(load_file(&good, &reg, &[]).is_ok());
+    let bad = dir.join("bad.ron");
+    std::fs::write(&bad, graph("Voronoi")).unwrap();
+    let e = match load_file(&bad, &reg, &[]) {
+        Ok(_) => panic!("a graph with `relaxation: Voronoi` loaded"),
+        Err(e) => e,
+    };
+    assert_eq!(e.diagnostics.len(), 1, "{e:?}");
+    let d = &e.diagnostics[0];
+    assert_eq!(d.line, 4, "{d:?}");
+    assert!(d.message.contains("Voronoi"), "{d:?}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
