@@ -2427,22 +2427,20 @@ impl State<'_> {
                             let mut s = [0.0; 3];
                             let mut nsum = [0.0; 3];
                             let mut w = 0.0;
-                            for k in he.outgoing(v) {
-                                let f = halfedge::face_of(k);
-                                if lloyd {
-                                    let [x, y, z] = he.face_vertices(f).map(|u| he.position(u));
-                                    nsum = vec3::add(
-                                        nsum,
-                                        vec3::cross(vec3::sub(y, x), vec3::sub(z, x)),
-                                    );
+                            if lloyd {
+                                for k in he.outgoing(v) {
                                     // The corners after v, in the face's order.
                                     let a = he.position(he.to(k));
                                     let b = he.position(he.to(halfedge::next(k)));
+                                    let n = vec3::cross(vec3::sub(a, p), vec3::sub(b, p));
+                                    nsum = vec3::add(nsum, n);
                                     let (g, area) = voronoi_part(p, a, b);
                                     s = vec3::add(s, vec3::scale(g, area));
                                     w += area;
-                                } else {
-                                    let (nf, c, a) = face_value(f);
+                                }
+                            } else {
+                                for k in he.outgoing(v) {
+                                    let (nf, c, a) = face_value(halfedge::face_of(k));
                                     nsum = vec3::add(nsum, nf);
                                     s = vec3::add(s, c);
                                     w += a;
