@@ -983,23 +983,37 @@ fn valence6_share(m: &TriMesh) -> f64 {
     valence.iter().filter(|&&v| v == 6).count() as f64 / valence.len() as f64
 }
 
+/// Remeshes a sphere and an ellipsoid with `relaxation` and asserts that more than 80 % of the
+/// vertices have valence 6, that no angle is below 30°, and that one thread gives the bits of
+/// the pool.
+fn closed_shapes_are_regular(relaxation: Relaxation) {
+    let sphere = shapes::sphere(1.0, 5).unwrap();
+    let ellipsoid = shapes::ellipsoid(1.0, 0.7, 0.5, 5, 0.0, 1).unwrap();
+    for (name, input, l) in [("ellipsoid", &ellipsoid, 0.05), ("sphere", &sphere, 0.06)] {
+        let params = IsotropicParams {
+            relaxation,
+            ..abs(l)
+        };
+        let out = isotropic(input, None, &params, Par::Rayon).unwrap().mesh;
+        assert_manifold(&out);
+        let share = valence6_share(&out);
+        let lo = min_angle_deg(&out);
+        eprintln!("{name}, {relaxation:?}: valence 6 {share:.4}, min angle {lo:.2}");
+        assert!(share > 0.8, "{name}: valence-6 share {share:.3}");
+        assert!(lo >= 30.0, "{name}: min angle {lo:.2}°");
+        let seq = isotropic(input, None, &params, Par::Seq).unwrap().mesh;
+        assert_eq!(seq.positions, out.positions, "{name}");
+        assert_eq!(seq.triangles, out.triangles, "{name}");
+    }
+}
+
 #[test]
 fn sideways_flips_make_most_vertices_regular() {
     // Flips that only lower the valence deviation leave the 5–7 pairs where they are (0.793
     // of the ellipsoid's and 0.763 of the sphere's vertices end with valence 6); moving the
     // pairs until they meet and cancel gives 0.857 and 0.874. A closed surface of genus 0
     // needs only twelve valence-5 vertices.
-    let sphere = shapes::sphere(1.0, 5).unwrap();
-    let ellipsoid = shapes::ellipsoid(1.0, 0.7, 0.5, 5, 0.0, 1).unwrap();
-    for (name, input, l) in [("ellipsoid", &ellipsoid, 0.05), ("sphere", &sphere, 0.06)] {
-        let out = isotropic(input, None, &abs(l), Par::Rayon).unwrap().mesh;
-        assert_manifold(&out);
-        let share = valence6_share(&out);
-        let lo = min_angle_deg(&out);
-        eprintln!("{name}: valence 6 {share:.4}, min angle {lo:.2}");
-        assert!(share > 0.8, "{name}: valence-6 share {share:.3}");
-        assert!(lo >= 30.0, "{name}: min angle {lo:.2}°");
-    }
+    closed_shapes_are_regular(Relaxation::Centroids);
 }
 
 /// The strip of `far_points_between_boundary_vertices_get_a_new_vertex`: one target length
@@ -1332,24 +1346,7 @@ fn lloyd_relaxation_keeps_the_shapes_regular_and_is_deterministic() {
     // Lloyd steps change little (measured: ellipsoid 0.866 -> 0.856, sphere 0.862 -> 0.862,
     // sphere at L = 0.04 0.986 -> 0.994, jittered torus 0.845 -> 0.857): what must hold is
     // the same quality bounds as the default, and the same bits at any thread count.
-    let sphere = shapes::sphere(1.0, 5).unwrap();
-    let ellipsoid = shapes::ellipsoid(1.0, 0.7, 0.5, 5, 0.0, 1).unwrap();
-    for (name, input, l) in [("ellipsoid", &ellipsoid, 0.05), ("sphere", &sphere, 0.06)] {
-        let params = IsotropicParams {
-            relaxation: Relaxation::Lloyd,
-            ..abs(l)
-        };
-        let out = isotropic(input, None, &params, Par::Rayon).unwrap().mesh;
-        assert_manifold(&out);
-        let share = valence6_share(&out);
-        let lo = min_angle_deg(&out);
-        eprintln!("{name}: valence 6 {share:.4}, min angle {lo:.2}");
-        assert!(share > 0.8, "{name}: valence-6 share {share:.3}");
-        assert!(lo >= 30.0, "{name}: min angle {lo:.2}°");
-        let seq = isotropic(input, None, &params, Par::Seq).unwrap().mesh;
-        assert_eq!(seq.positions, out.positions, "{name}");
-        assert_eq!(seq.triangles, out.triangles, "{name}");
-    }
+    closed_shapes_are_regular(Relaxation::Lloyd);
 }
 
 #[test]
