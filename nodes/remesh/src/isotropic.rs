@@ -163,8 +163,8 @@ pub struct IsotropicParams {
     /// Where relaxation moves a free vertex (default `Centroids`). `Lloyd` moves it to the
     /// centroid of its Voronoi cell in all rounds but the last, which makes the cells
     /// hexagonal: more vertices of valence 6 (on cgal_fandisk_large at 2 %, scale-conforming
-    /// curves, 0.775 → 0.798), at the price of where the last passes leave a few cut-off
-    /// corners and tips (docs/scale-remesh.md, version 22).
+    /// curves, 0.775 → 0.798), at the price of a few corners and tips that the last passes
+    /// then cannot repair (docs/scale-remesh.md, version 22).
     pub relaxation: Relaxation,
 }
 
@@ -2725,11 +2725,12 @@ fn voronoi_part(p: V3, a: V3, b: V3) -> (V3, f64) {
     let (u, w) = (vec3::sub(a, p), vec3::sub(b, p));
     let n = vec3::cross(u, w);
     let nn = vec3::dot(n, n);
+    if nn <= 0.0 {
+        return (p, 0.0);
+    }
     let (ma, mb) = (vec3::lerp(p, a, 0.5), vec3::lerp(p, b, 0.5));
     let (da, db, dab) = (vec3::dot(u, u), vec3::dot(w, w), vec3::dist(a, b).powi(2));
-    let c = if nn <= 0.0 {
-        return (p, 0.0);
-    } else if dab >= da + db {
+    let c = if dab >= da + db {
         vec3::lerp(a, b, 0.5)
     } else if da >= db + dab {
         ma
