@@ -2,12 +2,14 @@
 //!
 //!   cargo bench -p crestflow-nodes-remesh --bench remesh -- OUT_DIR MESH... [--targets 1,2]
 //!       [--feature-tolerance 0.002] [--iterations 10] [--smoothing-steps 5]
-//!       [--feature-grading 0] [--conforming] [--lloyd]
+//!       [--feature-grading 0] [--conforming [--sharp-angle 30]] [--lloyd]
 //!
 //! With `--conforming` (method `crestflow_conforming`) the features are not every sharp edge
 //! but the scale-conforming subset of them: `remesh.sharp_edges` pruned at the target,
 //! `scale.conform` at r_min = the target, then `remesh.isotropic` constrained by that network
-//! only (its own sharp-edge detection off); the times cover all three steps. With `--lloyd`
+//! only (its own sharp-edge detection off); the times cover all three steps. `--sharp-angle A`
+//! sets the dihedral angle above which an edge is sharp there (dense networks at 5°–15°; the
+//! method's name then ends in `_A`). With `--lloyd`
 //! the remeshing runs with `relaxation: Lloyd` and the method's name ends in `_lloyd`.
 //!
 //! For each mesh and target (percent of the bounding-box diagonal): the median of 3 runs of
@@ -54,6 +56,11 @@ fn main() {
         if let Some(t) = args.get(i + 1).and_then(|t| t.parse().ok()) {
             feature_grading = t;
         }
+        args.drain(i..(i + 2).min(args.len()));
+    }
+    let mut sharp_angle = None;
+    if let Some(i) = args.iter().position(|a| a == "--sharp-angle") {
+        sharp_angle = args.get(i + 1).and_then(|t| t.parse::<f64>().ok());
         args.drain(i..(i + 2).min(args.len()));
     }
     let mut smoothing_steps = IsotropicParams::default().smoothing_steps;
@@ -114,6 +121,7 @@ fn main() {
             };
             let sharp_params = SharpEdgesParams {
                 prune_scale: pct / 100.0,
+                angle_deg: sharp_angle.unwrap_or(SharpEdgesParams::default().angle_deg),
                 ..Default::default()
             };
             let conform_params = ConformParams {
@@ -160,10 +168,14 @@ fn main() {
             } else {
                 "crestflow"
             };
+            let method = match sharp_angle {
+                Some(a) if conforming => format!("{method}_{a}"),
+                _ => method.to_string(),
+            };
             let method = if lloyd {
                 format!("{method}_lloyd")
             } else {
-                method.to_string()
+                method
             };
             let file = out_dir.join(format!("{stem}.{method}_{pct}pct.obj"));
             if let Err(e) = save_mesh_obj(&file, &out.mesh, None) {

@@ -80,11 +80,11 @@ pub struct ConformParams {
     /// `Ilp` (default, microlp), `Highs` (builds with the `highs` feature) or `Greedy`.
     pub solver: Solver,
     /// Time limit of the exact solver per conflict component and iteration, in seconds
-    /// (default 60; 0 = none). A component that runs out keeps the best solution found (never
-    /// worse than greedy) and is counted in `unproven_components`; only then can the result
-    /// depend on the machine's speed. Components above 2000 binaries are improved from the
-    /// greedy selection by exact solves of windows of 60 binaries within this limit (also
-    /// counted as unproven) when the solver does not prove them whole within 5 s.
+    /// (default 60; 0 = none). A component the solver does not prove optimal within 5 s
+    /// (without a limit: one above 2000 binaries) is improved from the best selection found by
+    /// exact solves of windows of 60 binaries for the rest of the limit. Such a component is
+    /// never worse than greedy and is counted in `unproven_components`; only then can the
+    /// result depend on the machine's speed.
     pub time_limit_s: f64,
 }
 
@@ -218,7 +218,8 @@ pub struct ConformStats {
     pub long_dropped: usize,
     pub loops_dropped: usize,
     pub repaired_edges: usize,
-    /// Components (over all iterations) whose optimum was not proven within the time limit.
+    /// Components (over all iterations) whose optimum was not proven: out of time, or improved
+    /// by windows after [`crate::ilp::WHOLE_TRY_S`].
     pub unproven_components: usize,
 }
 
@@ -748,7 +749,7 @@ pub struct ConformNode;
 impl NodeKind for ConformNode {
     type Params = ConformParams;
     const KIND: &'static str = "scale.conform";
-    const VERSION: u32 = 4;
+    const VERSION: u32 = 5;
     const DOC: &'static str = "Adapts a feature curve network to a prescribed scale r_min: arcs \
         resampled into edges of length in [r_min, r_max], edge and vertex conflicts detected, \
         the best conflict-free subset selected by an exact binary linear program (weights \

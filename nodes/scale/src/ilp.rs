@@ -21,13 +21,18 @@
 //! between constrained edges), which are independent problems, solved in parallel and
 //! collected in component order.
 //!
-//! **Large components.** Above [`EXACT_MAX_BINARIES`] binaries a component gets a few seconds
-//! whole; one the solver does not prove by then (dense networks: sharp edges above a few
-//! degrees on a scanned mesh) is improved window by window, each window a few dozen
-//! neighbouring binaries solved exactly with the rest fixed (large-neighbourhood search,
-//! [`Method::Windows`]).
+//! **Formulation.** Conflicting pairs (4.4), (4.5) are written as cliques of the conflict
+//! graph (Σ b ≤ 1 over edges that all conflict with each other: the same binaries allowed,
+//! a tighter relaxation), and a triple of (4.10) is left out when two of its edges conflict
+//! already (the pair implies it) or when it was written before.
+//!
+//! **Hard components.** Under a time limit (and above [`EXACT_MAX_BINARIES`] binaries in any
+//! case) a component gets [`WHOLE_TRY_S`] seconds whole; one the solver does not prove by
+//! then (dense networks: sharp edges above a few degrees on a scanned mesh) is improved window
+//! by window, each window a few dozen neighbouring binaries solved exactly with the rest fixed
+//! (large-neighbourhood search, [`Method::Windows`]).
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashSet};
 
 use crestflow_flow::Par;
 use good_lp::{
@@ -78,8 +83,8 @@ pub enum Method {
     Greedy,
     /// Greedy, then improved by exact solves of windows of `size` neighbouring binaries with
     /// the rest fixed (large-neighbourhood search; feasible, never worse than greedy, not
-    /// proven optimal). What [`Method::Ilp`] goes on with on components above
-    /// [`EXACT_MAX_BINARIES`] that it does not prove within [`WHOLE_TRY_S`].
+    /// proven optimal). What [`Method::Ilp`] goes on with on components it does not prove
+    /// within [`WHOLE_TRY_S`] (under a time limit, or above [`EXACT_MAX_BINARIES`]).
     Windows { size: usize },
 }
 
@@ -141,13 +146,15 @@ pub struct Selection {
     /// Edges fixed to 1 because no constraint involves them.
     pub free_edges: usize,
     /// Components whose optimum was not proven: the solver ran out of time, or the component
-    /// was solved by windows ([`Method::Windows`], and [`Method::Ilp`] on components above
-    /// [`EXACT_MAX_BINARIES`] not proven within [`WHOLE_TRY_S`]).
+    /// was solved by windows ([`Method::Windows`], and [`Method::Ilp`] on components not
+    /// proven within [`WHOLE_TRY_S`]).
     pub unproven: usize,
     /// The part of `objective` that no choice changes: weights of the free edges and the
     /// combined terms between two free edges. `objective − fixed_objective` is what the
     /// conflict components contribute.
     pub fixed_objective: f64,
+    /// Rows of the binary program (all components, after the free edges are fixed).
+    pub constraints: usize,
 }
 
 struct Prepared {
@@ -157,6 +164,52 @@ struct Prepared {
     lin: Vec<f64>,
     /// Combined terms between two constrained edges.
     pairs: Vec<(u32, u32, f64)>,
+}
+
+/// Cliques of the graph whose edges are `pairs` that together cover every pair: each pair
+/// not covered yet, in order, grows into a clique by the common neighbours of its ends,
+/// lowest index first. One constraint Σ b ≤ 1 per clique allows the same binaries as (4.4)
+/// or (4.5) per pair, with fewer rows and a far tighter relaxation (pairs alone allow ½
+/// everywhere), which is what the solver's bounds are made of. A pair (i, i) stays the row
+/// 2 b_i ≤ 1 it was.
+fn clique_cover(pairs: &[(u32, u32)]) -> Vec<Vec<u32>> {
+    let mut adj: BTreeMap<u32, Vec<u32>> = BTreeMap::new();
+    for &(i, j) in pairs {
+        if i != j {
+            adj.entry(i).or_default().push(j);
+            adj.entry(j).or_default().push(i);
+        }
+    }
+    for list in adj.values_mut() {
+        list.sort_unstable();
+        list.dedup();
+    }
+    let joined = |x: u32, y: u32| adj[&x].binary_search(&y).is_ok();
+    let mut covered: HashSet<(u32, u32)> = HashSet::new();
+    let mut cliques = Vec::new();
+    for &(i, j) in pairs {
+        let (i, j) = (i.min(j), i.max(j));
+        if !covered.insert((i, j)) {
+            continue;
+        }
+        if i == j {
+            cliques.push(vec![i, i]);
+            continue;
+        }
+        let mut clique = vec![i, j];
+        for &k in &adj[&i] {
+            if k != j && clique.iter().all(|&m| joined(m, k)) {
+                clique.push(k);
+            }
+        }
+        for (a, &x) in clique.iter().enumerate() {
+            for &y in &clique[a + 1..] {
+                covered.insert((x.min(y), x.max(y)));
+            }
+        }
+        cliques.push(clique);
+    }
+    cliques
 }
 
 fn raw_constraints(p: &Problem) -> Vec<Lin> {
@@ -172,27 +225,43 @@ fn raw_constraints(p: &Problem) -> Vec<Lin> {
     }
     let live = |e: u32| !p.fixed_zero[e as usize];
     let mut cons: Vec<Lin> = Vec::new();
+    let conflicting: HashSet<(u32, u32)> = p
+        .edge_conflicts
+        .iter()
+        .map(|&(i, j)| (i.min(j), i.max(j)))
+        .collect();
+    let conflict = |x: u32, y: u32| conflicting.contains(&(x.min(y), x.max(y)));
+    // Triples of (4.10) already written, in ascending order.
+    let mut triples: HashSet<[u32; 3]> = HashSet::new();
     let mut short_conf: BTreeMap<u32, Vec<u32>> = BTreeMap::new();
-    for &(i, j) in &p.edge_conflicts {
-        if live(i) && live(j) {
-            cons.push(Lin {
-                terms: vec![(Var::Edge(i), 1.0), (Var::Edge(j), 1.0)],
-                rhs: 1.0,
-            });
-            if p.short[i as usize] {
-                short_conf.entry(i).or_default().push(j);
-            }
-            if p.short[j as usize] {
-                short_conf.entry(j).or_default().push(i);
-            }
+    let live_conflicts: Vec<(u32, u32)> = p
+        .edge_conflicts
+        .iter()
+        .copied()
+        .filter(|&(i, j)| live(i) && live(j))
+        .collect();
+    for clique in clique_cover(&live_conflicts) {
+        cons.push(Lin {
+            terms: clique.iter().map(|&e| (Var::Edge(e), 1.0)).collect(),
+            rhs: 1.0,
+        });
+    }
+    for &(i, j) in &live_conflicts {
+        if p.short[i as usize] {
+            short_conf.entry(i).or_default().push(j);
+        }
+        if p.short[j as usize] {
+            short_conf.entry(j).or_default().push(i);
         }
     }
     let mut vvars: Vec<u32> = Vec::new();
-    for &(u, v) in &p.vertex_conflicts {
+    for clique in clique_cover(&p.vertex_conflicts) {
         cons.push(Lin {
-            terms: vec![(Var::Vertex(u), 1.0), (Var::Vertex(v), 1.0)],
+            terms: clique.iter().map(|&v| (Var::Vertex(v), 1.0)).collect(),
             rhs: 1.0,
         });
+    }
+    for &(u, v) in &p.vertex_conflicts {
         vvars.push(u);
         vvars.push(v);
     }
@@ -229,6 +298,19 @@ fn raw_constraints(p: &Problem) -> Vec<Lin> {
                 for &ei in &inc[a as usize] {
                     for &ej in &inc[b as usize] {
                         if ei == s || ej == s || ei == ej || c == ei || c == ej {
+                            continue;
+                        }
+                        // A triple two of whose edges conflict already is implied by that
+                        // pair's constraint (4.4), for the binaries and for the relaxation;
+                        // at vertices of high degree most triples are such, or repeats (one
+                        // component of the armadillo's sharp edges above 10° at 2 % had
+                        // 920k constraints, 91k without them, for 967 binaries).
+                        if conflict(c, ei) || conflict(c, ej) || conflict(ei, ej) {
+                            continue;
+                        }
+                        let mut key = [c, ei, ej];
+                        key.sort_unstable();
+                        if !triples.insert(key) {
                             continue;
                         }
                         cons.push(Lin {
@@ -657,19 +739,23 @@ where
 }
 
 /// [`Method::Ilp`] gives a component with more binaries than this at most
-/// [`WHOLE_TRY_S`] seconds whole; unless the solver proves it optimal by then, the rest of the
-/// time limit goes to windows of [`WINDOW`] binaries ([`Method::Windows`]) from the best
-/// selection found. Size alone does not tell: the armadillo's ridges at 1 % and 2 % make
-/// components of 2416 and 3178 binaries that the solver proves in well under a second, while
-/// its sharp edges above 15° / 10° / 5° at 2 % (5168 / 13659 / 18210 binaries) ran out of five
-/// seconds per iteration with little or nothing over greedy.
+/// [`WHOLE_TRY_S`] seconds whole even without a time limit (with one, every component);
+/// unless the solver proves it optimal by then, the rest of the time limit goes to windows of
+/// [`WINDOW`] binaries ([`Method::Windows`]) from the best selection found. Size alone does
+/// not tell: the armadillo's ridges at 1 % and 2 % make components of 2416 and 3178 binaries
+/// that the solver proves in well under a second, while its sharp edges above 15° / 10° / 5°
+/// at 2 % (5168 / 13659 / 18210 binaries) ran out of five seconds per iteration with little
+/// or nothing over greedy.
 pub const EXACT_MAX_BINARIES: usize = 2000;
 
-/// Seconds a component above [`EXACT_MAX_BINARIES`] is given whole (or the time limit, if
-/// shorter).
+/// Seconds a component is given whole under a time limit (or the limit, if shorter), and
+/// one above [`EXACT_MAX_BINARIES`] binaries without one. Smaller components can be as hard:
+/// on the armadillo's sharp edges above 15° at 2 %, one of 928 binaries took microlp 49 s to
+/// prove, and its selection after 5 s was already the optimal one; above 10°, one of 967
+/// binaries was not proven in a minute.
 pub const WHOLE_TRY_S: f64 = 5.0;
 
-/// Binaries per window when [`Method::Ilp`] meets a component above [`EXACT_MAX_BINARIES`]:
+/// Binaries per window when [`Method::Ilp`] goes on with windows ([`WHOLE_TRY_S`]):
 /// on the armadillo's sharp edges above 5° at 2 % (18k binaries, a minute's limit), windows
 /// of 30 / 60 / 120 / 300 binaries reached objectives 1.75 / 2.13 / 1.71 / 1.03 times greedy's
 /// (larger windows take longer each and were still in their first pass at the limit).
@@ -687,6 +773,12 @@ const WINDOW_PASSES: usize = 4;
 /// Every window gets what is left of `time_limit` (for the whole component), and no window
 /// starts once it is used up; while that does not happen, the result does not depend on the
 /// machine.
+///
+/// Windows that share no constraint and no combined term do not read each other's binaries,
+/// so a window only waits for the earlier windows it touches: those of one *level* (one more
+/// than the highest level of the earlier windows it touches) are solved in parallel, which
+/// gives the selection solving them one after the other gives, at any thread count.
+#[allow(clippy::too_many_arguments)]
 fn solve_windows(
     pr: &Prepared,
     comp: &Component,
@@ -695,6 +787,7 @@ fn solve_windows(
     backend: Backend,
     time_limit: Option<f64>,
     start: Option<Vec<bool>>,
+    par: Par,
 ) -> Vec<bool> {
     let size = size.max(1);
     let started = std::time::Instant::now();
@@ -727,10 +820,11 @@ fn solve_windows(
         a.sort_unstable();
         a.dedup();
     }
-    let mut slot = vec![usize::MAX; n];
     for pass in 0..WINDOW_PASSES {
-        let mut improved = false;
+        // The pass's windows: a partition of the binaries grown from seeds in order (from the
+        // other end in odd passes); it does not depend on the selection.
         let mut taken = vec![false; n];
+        let mut windows: Vec<Vec<usize>> = Vec::new();
         for i in 0..n {
             let seed = if pass % 2 == 0 { i } else { n - 1 - i };
             if taken[seed] {
@@ -748,6 +842,32 @@ fn solve_windows(
                 }
                 head += 1;
             }
+            windows.push(window);
+        }
+        let mut owner = vec![usize::MAX; n];
+        for (k, w) in windows.iter().enumerate() {
+            for &a in w {
+                owner[a] = k;
+            }
+        }
+        let mut levels: Vec<Vec<usize>> = Vec::new();
+        let mut level = vec![0usize; windows.len()];
+        for k in 0..windows.len() {
+            let l = windows[k]
+                .iter()
+                .flat_map(|&a| adj[a].iter().map(|&b| owner[b]))
+                .filter(|&j| j < k)
+                .map(|j| level[j] + 1)
+                .max()
+                .unwrap_or(0);
+            level[k] = l;
+            if levels.len() <= l {
+                levels.resize(l + 1, Vec::new());
+            }
+            levels[l].push(k);
+        }
+        let mut improved = false;
+        for ks in &levels {
             let left = match time_limit {
                 Some(t) => {
                     let l = t - started.elapsed().as_secs_f64();
@@ -758,9 +878,28 @@ fn solve_windows(
                 }
                 None => None,
             };
-            improved |= improve_window(
-                pr, comp, ci, &loc, &cons_of, &pairs_of, &window, &mut slot, &mut x, backend, left,
-            );
+            let found = par.map_collect(ks.len(), |t| {
+                improve_window(
+                    pr,
+                    comp,
+                    ci,
+                    &loc,
+                    &cons_of,
+                    &pairs_of,
+                    &windows[ks[t]],
+                    &x,
+                    backend,
+                    left,
+                )
+            });
+            for (t, y) in found.into_iter().enumerate() {
+                if let Some(y) = y {
+                    for (w, &a) in windows[ks[t]].iter().enumerate() {
+                        x[a] = y[w];
+                    }
+                    improved = true;
+                }
+            }
         }
         if !improved {
             break;
@@ -769,9 +908,8 @@ fn solve_windows(
     x
 }
 
-/// Solves the binaries of `window` (local indices) exactly with the others fixed at `x`, and
-/// writes the result into `x` if it raises the objective. `slot` is all `usize::MAX` on entry
-/// and on return.
+/// Solves the binaries of `window` (local indices) exactly with the others fixed at `x`;
+/// returns the window's new binaries if they raise the objective.
 #[allow(clippy::too_many_arguments)]
 fn improve_window(
     pr: &Prepared,
@@ -781,14 +919,14 @@ fn improve_window(
     cons_of: &[Vec<usize>],
     pairs_of: &[Vec<usize>],
     window: &[usize],
-    slot: &mut [usize],
-    x: &mut [bool],
+    x: &[bool],
     backend: Backend,
     time_limit: Option<f64>,
-) -> bool {
+) -> Option<Vec<bool>> {
     // The window's binaries renumbered 0.. as a problem of its own: edges keep their linear
     // coefficient plus the combined terms with partners fixed at 1 outside the window;
     // constraints move the fixed binaries' part to the right-hand side.
+    let mut slot = vec![usize::MAX; x.len()];
     for (w, &a) in window.iter().enumerate() {
         slot[a] = w;
     }
@@ -843,9 +981,6 @@ fn improve_window(
         .collect();
     let sub_vars: Vec<Var> = window.iter().map(|&a| sub_var(a)).collect();
     let start: Vec<bool> = window.iter().map(|&a| x[a]).collect();
-    for &a in window {
-        slot[a] = usize::MAX;
-    }
     let sub = Prepared {
         constraints,
         constrained: Vec::new(),
@@ -860,16 +995,8 @@ fn improve_window(
     let sub_loc = local(&sub_comp);
     let before = comp_objective(&sub, &sub_comp, &sub_loc, &start);
     // A window the solver fails on keeps its part of the (feasible) selection.
-    let Ok((y, _)) = solve_ilp_from(&sub, &sub_comp, ci, backend, time_limit, start) else {
-        return false;
-    };
-    if comp_objective(&sub, &sub_comp, &sub_loc, &y) > before + 1e-9 {
-        for (w, &a) in window.iter().enumerate() {
-            x[a] = y[w];
-        }
-        return true;
-    }
-    false
+    let (y, _) = solve_ilp_from(&sub, &sub_comp, ci, backend, time_limit, start).ok()?;
+    (comp_objective(&sub, &sub_comp, &sub_loc, &y) > before + 1e-9).then_some(y)
 }
 
 fn solve_greedy(pr: &Prepared, comp: &Component) -> Vec<bool> {
@@ -1008,7 +1135,7 @@ pub fn select_using(
     let sols: Vec<Result<(Vec<bool>, bool), SelectError>> = par.map_collect(comps.len(), |ci| {
         let comp = &comps[ci];
         match method {
-            Method::Ilp if comp.vars.len() > EXACT_MAX_BINARIES => {
+            Method::Ilp if time_limit.is_some() || comp.vars.len() > EXACT_MAX_BINARIES => {
                 let started = std::time::Instant::now();
                 let whole = time_limit.map_or(WHOLE_TRY_S, |t| t.min(WHOLE_TRY_S));
                 let (x, proven) = solve_ilp(&pr, comp, ci, backend, Some(whole))?;
@@ -1020,12 +1147,12 @@ pub fn select_using(
                     return Ok((x, false));
                 }
                 Ok((
-                    solve_windows(&pr, comp, ci, WINDOW, backend, left, Some(x)),
+                    solve_windows(&pr, comp, ci, WINDOW, backend, left, Some(x), par),
                     false,
                 ))
             }
             Method::Windows { size } => Ok((
-                solve_windows(&pr, comp, ci, size, backend, time_limit, None),
+                solve_windows(&pr, comp, ci, size, backend, time_limit, None, par),
                 false,
             )),
             Method::Ilp => solve_ilp(&pr, comp, ci, backend, time_limit),
@@ -1077,6 +1204,7 @@ pub fn select_using(
         free_edges,
         unproven,
         fixed_objective,
+        constraints: pr.constraints.len(),
     })
 }
 

@@ -422,3 +422,55 @@ fn highs_matches_brute_force_and_solves_the_long_path() {
     assert!(feasible_full(&p, &w.keep, &w.keep_vertex));
     assert!(w.objective >= 0.99 * best, "{}", w.objective);
 }
+
+/// Six edges that all conflict with each other are one row (a clique), not fifteen pairs,
+/// and the program still keeps the heaviest alone.
+#[test]
+fn mutually_conflicting_edges_are_one_clique_row() {
+    let n = 6u32;
+    let mut edge_conflicts = Vec::new();
+    for i in 0..n {
+        for j in i + 1..n {
+            edge_conflicts.push((i, j));
+        }
+    }
+    let p = Problem {
+        n_vertices: 2 * n as usize,
+        edges: (0..n).map(|e| [2 * e, 2 * e + 1]).collect(),
+        weight: (1..=n).map(f64::from).collect(),
+        fixed_zero: vec![false; n as usize],
+        short: vec![false; n as usize],
+        edge_conflicts,
+        vertex_conflicts: vec![],
+        pairs: vec![],
+    };
+    let s = select(&p, Method::Ilp, Par::Seq).unwrap();
+    assert_eq!(s.constraints, 1);
+    assert_eq!(s.objective, 6.0);
+    assert_eq!(s.keep, [false, false, false, false, false, true]);
+}
+
+/// A short edge s = (0, 1) with edges e1, e2 at 0 and e3, e4 at 1, and an edge c in conflict
+/// with s, e1 and e2: the four triples c + e_i + e_j ≤ 2 of (4.10) are implied by the pairs
+/// c + e1 ≤ 1, c + e2 ≤ 1 and are not written. Rows: three pairs and the short edge's
+/// (4.9) (eight with the triples). Keeping c (weight 10) drops s, e1 and e2: objective 12.
+#[test]
+fn triples_implied_by_a_conflicting_pair_are_not_written() {
+    let (s, e1, e2, e3, e4, c) = (0u32, 1, 2, 3, 4, 5);
+    let p = Problem {
+        n_vertices: 8,
+        edges: vec![[0, 1], [0, 2], [0, 3], [1, 4], [1, 5], [6, 7]],
+        weight: vec![1.0, 1.0, 1.0, 1.0, 1.0, 10.0],
+        fixed_zero: vec![false; 6],
+        short: vec![true, false, false, false, false, false],
+        edge_conflicts: vec![(s, c), (c, e1), (c, e2)],
+        vertex_conflicts: vec![],
+        pairs: vec![],
+    };
+    let sel = select(&p, Method::Ilp, Par::Seq).unwrap();
+    assert_eq!(sel.constraints, 4);
+    assert_eq!(sel.objective, 12.0);
+    assert_eq!(sel.keep, [false, false, false, true, true, true]);
+    assert!([e3, e4].iter().all(|&e| sel.keep[e as usize]));
+    assert_eq!(sel.objective, brute_force_full(&p).unwrap());
+}
