@@ -762,8 +762,10 @@ pub const WHOLE_TRY_S: f64 = 5.0;
 pub const WINDOW: usize = 60;
 
 /// Passes over a component's windows at most (each pass grows its windows from the other end
-/// of the variable order, so that their borders move).
-const WINDOW_PASSES: usize = 4;
+/// of the variable order, so that their borders move). The passes stop earlier when one
+/// improves nothing: on the armadillo's sharp edges above 10° and 5° at 2 %, within eight
+/// passes, at objectives 0.8 % and 1.4 % above those of four passes.
+const WINDOW_PASSES: usize = 16;
 
 /// A large component, solved by windows (large-neighbourhood search): from `start` (a
 /// feasible selection; greedy's when `None`), each window of up to `size` neighbouring
