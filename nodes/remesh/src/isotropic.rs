@@ -72,7 +72,9 @@
 //!
 //! Feature constraints (thesis §5.1.1, items 1–2): feature edges are never flipped; a feature
 //! vertex is only removed by collapsing along its own chain into a vertex of the same chain or
-//! a corner; corners (see [`crate::features`]) never move and are never removed; other feature
+//! a corner; corners (see [`crate::features`]) never move and are never removed (except that
+//! the two corners at the ends of a curve chain shorter than 0.3 L merge: one network
+//! junction whose curves reach the input's edges at two vertices); other feature
 //! vertices slide along their chain (the arc-length parametrised polyline of input feature
 //! edges, [`crate::chain`]; for a chain of curve edges, the network's own polyline, onto which
 //! its vertices move) to the middle of their two chain neighbours, or, where that would cut
@@ -301,6 +303,9 @@ struct State<'a> {
     fallbacks: usize,
     projections: usize,
     chains: Vec<Chain>,
+    /// Per chain: made of curve edges and shorter than [`CORNER_MERGE`] · L between two
+    /// corners; its ends may merge (see [`State::removable_into`]).
+    mergeable: Vec<bool>,
     /// Arc-length parameter of each chain vertex on its chain (unused for other vertices).
     param: Vec<f64>,
     /// Largest distance of a chain point from the output edge that replaces it.
@@ -317,6 +322,8 @@ struct State<'a> {
     cos_turn: f64,
     splits: usize,
     collapses: usize,
+    /// Corners merged at the ends of short curve chains.
+    corners_merged: usize,
     flips: usize,
     /// Set for the flips after which no split runs (the last round and after it): see
     /// [`State::long_flip_leaves_surface`].
@@ -485,6 +492,17 @@ fn isotropic_with(
             .zip(&chains.closed)
             .map(|(p, &c)| Chain::new(p.clone(), c))
             .collect(),
+        mergeable: (0..chains.points.len())
+            .map(|c| {
+                chains.from_curves[c]
+                    && !chains.closed[c]
+                    && chains.points[c]
+                        .windows(2)
+                        .map(|w| vec3::dist(w[0], w[1]))
+                        .sum::<f64>()
+                        < CORNER_MERGE * l
+            })
+            .collect(),
         param: chains.vertex_param.clone(),
         tol: params.feature_tolerance * l,
         chain_cap: Vec::new(),
@@ -497,6 +515,7 @@ fn isotropic_with(
         cos_turn: 60f64.to_radians().cos(),
         splits: 0,
         collapses: 0,
+        corners_merged: 0,
         flips: 0,
     };
     for (f, t) in mesh.triangles.iter().enumerate() {
@@ -594,6 +613,7 @@ fn isotropic_with(
         .set("part_corners", corners.len())
         .set("splits", st.splits)
         .set("collapses", st.collapses)
+        .set("corners_merged", st.corners_merged)
         .set("flips", st.flips)
         .set("projections", st.projections)
         .set("projection_fallbacks", st.fallbacks);
@@ -853,7 +873,16 @@ impl State<'_> {
     /// the chain is straight between its other neighbour and `b`.
     fn removable_into(&self, h: u32, a: u32, b: u32) -> bool {
         match self.role[a as usize] {
-            Role::Corner => false,
+            // Two corners at the ends of a short curve chain are one network vertex whose
+            // curves reach the input's edges at different vertices (their edge paths share
+            // their first edge): kept apart, they pin triangles of a few degrees.
+            Role::Corner => {
+                let c = self.he.tag(h);
+                c != NONE
+                    && self.mergeable[c as usize]
+                    && self.role[b as usize] == Role::Corner
+                    && self.merged_chains_apart(a, b)
+            }
             Role::Free => true,
             Role::Chain(c) => {
                 if self.he.tag(h) != c
@@ -870,6 +899,39 @@ impl State<'_> {
                 self.chain_straight(c, x, b, s)
             }
         }
+    }
+
+    /// Whether the feature edges of corner `a`, moved onto corner `b`, belong to other chains
+    /// than those of `b` and keep 30° from them. A chain joining both would become a loop
+    /// through one vertex, and two chains leaving in (nearly) the same direction would keep
+    /// only a sliver between them that no flip may remove.
+    fn merged_chains_apart(&self, a: u32, b: u32) -> bool {
+        let pb = self.he.position(b);
+        // (far end, chain) of the feature edges at `v`, but the one joining a and b.
+        let chain_ends = |v: u32| {
+            self.neighbor_iter(v)
+                .filter(move |&x| x != a && x != b)
+                .filter_map(move |x| {
+                    let k = self.he.find_edge(v, x);
+                    (k != NONE && self.he.tag(k) != NONE).then(|| (x, self.he.tag(k)))
+                })
+        };
+        chain_ends(a).all(|(x, ca)| {
+            let u = vec3::sub(self.he.position(x), pb);
+            chain_ends(b).all(|(y, cb)| {
+                if ca == cb {
+                    return false;
+                }
+                let w = vec3::sub(self.he.position(y), pb);
+                let d = vec3::dot(u, w);
+                d <= 0.0
+                    || d * d
+                        <= COS_FLIP_MIN_ANGLE
+                            * COS_FLIP_MIN_ANGLE
+                            * vec3::dot(u, u)
+                            * vec3::dot(w, w)
+            })
+        })
     }
 
     /// Where the merged vertex of collapsing `h` goes: the midpoint of two free vertices,
@@ -1956,6 +2018,9 @@ impl State<'_> {
         self.he.set_position(b, p);
         touched[b as usize] = true;
         self.collapses += 1;
+        if self.role[a as usize] == Role::Corner {
+            self.corners_merged += 1;
+        }
     }
 
     fn collapse_short(&mut self) {
@@ -2565,6 +2630,10 @@ struct SplitPlan {
 /// output onto itself ([`State::pull_to_far_points`]).
 const FAR_POINT: f64 = 0.3;
 
+/// Curve chains shorter than this times L between two corners let the corners merge (see
+/// `State::mergeable`).
+const CORNER_MERGE: f64 = 0.3;
+
 /// Median index distance between a face's corners above which the input is renumbered
 /// (`crestflow_geom::locality`): 512 positions are 12 KB, within the first-level caches.
 /// Scans and subdivided meshes measured 1064–46815, generated CAD parts 11–102.
@@ -2656,7 +2725,7 @@ pub struct IsotropicNode;
 impl NodeKind for IsotropicNode {
     type Params = IsotropicParams;
     const KIND: &'static str = "remesh.isotropic";
-    const VERSION: u32 = 22;
+    const VERSION: u32 = 23;
     const DOC: &'static str = "Isotropic remeshing at a target edge length (Botsch & Kobbelt \
         2004, thesis §5.1.1): splits > 4/3 L, collapses < 4/5 L, valence-improving flips, \
         tangential relaxation (relaxation: Centroids, or Lloyd for Voronoi-cell centroids and \
@@ -2664,7 +2733,8 @@ impl NodeKind for IsotropicNode {
         rounds. \
         Feature edges are kept: the optional feature curve network (snapped to mesh edges), \
         sharp edges (dihedral > sharp_angle_deg; free-ended sharp chains shorter than \
-        min_feature_length targets are dropped) and boundaries; corners stay fixed, other \
+        min_feature_length targets are dropped) and boundaries; corners stay fixed (the two \
+        ends of a curve shorter than 0.3 L merge into one), other \
         feature vertices slide along their feature polyline (for curves, the network's own \
         polyline, not the zig-zag edge path they snap to), feature edges are never flipped \
         and collapse only along themselves, and no output feature edge strays more than \

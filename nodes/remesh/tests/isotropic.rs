@@ -1387,3 +1387,74 @@ fn lloyd_relaxation_raises_the_valence_along_scale_conforming_creases() {
     assert!(b > a + 0.01, "valence-6 share {a:.4} -> {b:.4}");
     assert!(lo >= 30.0, "min angle {lo:.2}°");
 }
+
+/// Two junctions of a network 0.25 L apart, joined by a curve (what the armadillo's dense
+/// scale-conforming networks gave where two curves' edge paths share their first input
+/// edge): kept apart, the two fixed vertices pin thin triangles between them. They merge
+/// into one output vertex, on one of the two, and every curve still ends there.
+#[test]
+fn junctions_a_short_curve_apart_merge() {
+    let n = 40;
+    let mut flat = bumpy_square(n);
+    for p in &mut flat.positions {
+        p[2] = 0.0;
+    }
+    let flat = TriMesh::new(flat.positions, flat.triangles);
+    let id = |i: usize, j: usize| (j * (n + 1) + i) as u32;
+    // P = (0.5, 0.5) and Q = (0.525, 0.5); P goes left and up, Q right and down.
+    let grid_points = [(20, 20), (21, 20), (8, 20), (20, 32), (32, 20), (21, 8)];
+    let vertices: Vec<FcnVertex> = grid_points
+        .iter()
+        .map(|&(i, j)| FcnVertex {
+            position: flat.positions[id(i, j) as usize],
+            location: SurfacePoint::Vertex(id(i, j)),
+            strength: 1.0,
+        })
+        .collect();
+    let curve = |a: u32, b: u32| FeatureCurve {
+        vertices: vec![a, b],
+        closed: false,
+        label: CurveLabel::Other,
+    };
+    let net = FeatureCurveNetwork {
+        vertices,
+        curves: vec![
+            curve(0, 1),
+            curve(0, 2),
+            curve(0, 3),
+            curve(1, 4),
+            curve(1, 5),
+        ],
+    };
+    let params = IsotropicParams {
+        sharp_edges: false,
+        ..abs(0.1)
+    };
+    let out = isotropic(&flat, Some(&net), &params, Par::Rayon).unwrap();
+    assert_eq!(out.report.num("corners_merged"), Some(1.0));
+    let m = &out.mesh;
+    let (p, q) = ([0.5, 0.5, 0.0], [0.525, 0.5, 0.0]);
+    let near: Vec<V3> = m
+        .positions
+        .iter()
+        .copied()
+        .filter(|&x| vec3::dist(x, p) < 0.05 || vec3::dist(x, q) < 0.05)
+        .collect();
+    assert!(
+        near.len() == 1 && (near[0] == p || near[0] == q),
+        "output vertices near the junctions: {near:?}"
+    );
+    // The four outer curves still run straight into the merged vertex.
+    for end in [
+        [0.2, 0.5, 0.0],
+        [0.5, 0.8, 0.0],
+        [0.8, 0.5, 0.0],
+        [0.525, 0.2, 0.0],
+    ] {
+        assert!(m.positions.contains(&end), "curve end {end:?} lost");
+    }
+    let min = min_angle_deg(m);
+    assert!(min > 30.0, "min angle {min}");
+    let again = isotropic(&flat, Some(&net), &params, Par::Seq).unwrap();
+    assert_eq!(again.mesh.positions, m.positions);
+}
