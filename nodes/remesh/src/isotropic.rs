@@ -492,17 +492,7 @@ fn isotropic_with(
             .zip(&chains.closed)
             .map(|(p, &c)| Chain::new(p.clone(), c))
             .collect(),
-        mergeable: (0..chains.points.len())
-            .map(|c| {
-                chains.from_curves[c]
-                    && !chains.closed[c]
-                    && chains.points[c]
-                        .windows(2)
-                        .map(|w| vec3::dist(w[0], w[1]))
-                        .sum::<f64>()
-                        < CORNER_MERGE * l
-            })
-            .collect(),
+        mergeable: Vec::new(),
         param: chains.vertex_param.clone(),
         tol: params.feature_tolerance * l,
         chain_cap: Vec::new(),
@@ -518,6 +508,11 @@ fn isotropic_with(
         corners_merged: 0,
         flips: 0,
     };
+    st.mergeable = (0..st.chains.len())
+        .map(|c| {
+            chains.from_curves[c] && !chains.closed[c] && st.chains[c].total() < CORNER_MERGE * l
+        })
+        .collect();
     for (f, t) in mesh.triangles.iter().enumerate() {
         for &v in t {
             st.hint[v as usize] = f as u32;
@@ -909,12 +904,11 @@ impl State<'_> {
         let pb = self.he.position(b);
         // (far end, chain) of the feature edges at `v`, but the one joining a and b.
         let chain_ends = |v: u32| {
-            self.neighbor_iter(v)
-                .filter(move |&x| x != a && x != b)
-                .filter_map(move |x| {
-                    let k = self.he.find_edge(v, x);
-                    (k != NONE && self.he.tag(k) != NONE).then(|| (x, self.he.tag(k)))
-                })
+            self.incident_halfedges(v).filter_map(move |k| {
+                let (x, y) = (self.he.from(k), self.he.to(k));
+                let far = if x == v { y } else { x };
+                (self.he.tag(k) != NONE && far != a && far != b).then(|| (far, self.he.tag(k)))
+            })
         };
         chain_ends(a).all(|(x, ca)| {
             let u = vec3::sub(self.he.position(x), pb);

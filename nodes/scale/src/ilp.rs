@@ -166,50 +166,67 @@ struct Prepared {
     pairs: Vec<(u32, u32, f64)>,
 }
 
-/// Cliques of the graph whose edges are `pairs` that together cover every pair: each pair
-/// not covered yet, in order, grows into a clique by the common neighbours of its ends,
-/// lowest index first. One constraint Σ b ≤ 1 per clique allows the same binaries as (4.4)
-/// or (4.5) per pair, with fewer rows and a far tighter relaxation (pairs alone allow ½
-/// everywhere), which is what the solver's bounds are made of. A pair (i, i) stays the row
-/// 2 b_i ≤ 1 it was.
-fn clique_cover(pairs: &[(u32, u32)]) -> Vec<Vec<u32>> {
-    let mut adj: BTreeMap<u32, Vec<u32>> = BTreeMap::new();
-    for &(i, j) in pairs {
-        if i != j {
-            adj.entry(i).or_default().push(j);
-            adj.entry(j).or_default().push(i);
-        }
-    }
-    for list in adj.values_mut() {
-        list.sort_unstable();
-        list.dedup();
-    }
-    let joined = |x: u32, y: u32| adj[&x].binary_search(&y).is_ok();
-    let mut covered: HashSet<(u32, u32)> = HashSet::new();
-    let mut cliques = Vec::new();
-    for &(i, j) in pairs {
-        let (i, j) = (i.min(j), i.max(j));
-        if !covered.insert((i, j)) {
-            continue;
-        }
-        if i == j {
-            cliques.push(vec![i, i]);
-            continue;
-        }
-        let mut clique = vec![i, j];
-        for &k in &adj[&i] {
-            if k != j && clique.iter().all(|&m| joined(m, k)) {
-                clique.push(k);
+/// The graph of conflicting pairs (4.4) or (4.5), for lookups and the clique rows.
+struct ConflictGraph<'a> {
+    pairs: &'a [(u32, u32)],
+    adj: BTreeMap<u32, Vec<u32>>,
+}
+
+impl<'a> ConflictGraph<'a> {
+    fn new(pairs: &'a [(u32, u32)]) -> Self {
+        let mut adj: BTreeMap<u32, Vec<u32>> = BTreeMap::new();
+        for &(i, j) in pairs {
+            if i != j {
+                adj.entry(i).or_default().push(j);
+                adj.entry(j).or_default().push(i);
             }
         }
-        for (a, &x) in clique.iter().enumerate() {
-            for &y in &clique[a + 1..] {
-                covered.insert((x.min(y), x.max(y)));
-            }
+        for list in adj.values_mut() {
+            list.sort_unstable();
+            list.dedup();
         }
-        cliques.push(clique);
+        ConflictGraph { pairs, adj }
     }
-    cliques
+
+    /// Whether `x` and `y` conflict.
+    fn joined(&self, x: u32, y: u32) -> bool {
+        self.adj
+            .get(&x)
+            .is_some_and(|list| list.binary_search(&y).is_ok())
+    }
+
+    /// Cliques that together cover every pair: each pair not covered yet, in order, grows into
+    /// a clique by the common neighbours of its ends, lowest index first. One constraint
+    /// Σ b ≤ 1 per clique allows the same binaries as one per pair, with fewer rows and a far
+    /// tighter relaxation (pairs alone allow ½ everywhere), which is what the solver's bounds
+    /// are made of. A pair (i, i) stays the row 2 b_i ≤ 1 it was.
+    fn cliques(&self) -> Vec<Vec<u32>> {
+        let mut covered: HashSet<(u32, u32)> = HashSet::new();
+        let mut cliques = Vec::new();
+        for &(i, j) in self.pairs {
+            let (i, j) = (i.min(j), i.max(j));
+            if !covered.insert((i, j)) {
+                continue;
+            }
+            if i == j {
+                cliques.push(vec![i, i]);
+                continue;
+            }
+            let mut clique = vec![i, j];
+            for &k in &self.adj[&i] {
+                if k != j && clique.iter().all(|&m| self.joined(m, k)) {
+                    clique.push(k);
+                }
+            }
+            for (a, &x) in clique.iter().enumerate() {
+                for &y in &clique[a + 1..] {
+                    covered.insert((x.min(y), x.max(y)));
+                }
+            }
+            cliques.push(clique);
+        }
+        cliques
+    }
 }
 
 fn raw_constraints(p: &Problem) -> Vec<Lin> {
@@ -225,12 +242,6 @@ fn raw_constraints(p: &Problem) -> Vec<Lin> {
     }
     let live = |e: u32| !p.fixed_zero[e as usize];
     let mut cons: Vec<Lin> = Vec::new();
-    let conflicting: HashSet<(u32, u32)> = p
-        .edge_conflicts
-        .iter()
-        .map(|&(i, j)| (i.min(j), i.max(j)))
-        .collect();
-    let conflict = |x: u32, y: u32| conflicting.contains(&(x.min(y), x.max(y)));
     // Triples of (4.10) already written, in ascending order.
     let mut triples: HashSet<[u32; 3]> = HashSet::new();
     let mut short_conf: BTreeMap<u32, Vec<u32>> = BTreeMap::new();
@@ -240,7 +251,8 @@ fn raw_constraints(p: &Problem) -> Vec<Lin> {
         .copied()
         .filter(|&(i, j)| live(i) && live(j))
         .collect();
-    for clique in clique_cover(&live_conflicts) {
+    let conflicts = ConflictGraph::new(&live_conflicts);
+    for clique in conflicts.cliques() {
         cons.push(Lin {
             terms: clique.iter().map(|&e| (Var::Edge(e), 1.0)).collect(),
             rhs: 1.0,
@@ -255,7 +267,7 @@ fn raw_constraints(p: &Problem) -> Vec<Lin> {
         }
     }
     let mut vvars: Vec<u32> = Vec::new();
-    for clique in clique_cover(&p.vertex_conflicts) {
+    for clique in ConflictGraph::new(&p.vertex_conflicts).cliques() {
         cons.push(Lin {
             terms: clique.iter().map(|&v| (Var::Vertex(v), 1.0)).collect(),
             rhs: 1.0,
@@ -305,7 +317,10 @@ fn raw_constraints(p: &Problem) -> Vec<Lin> {
                         // at vertices of high degree most triples are such, or repeats (one
                         // component of the armadillo's sharp edges above 10° at 2 % had
                         // 920k constraints, 91k without them, for 967 binaries).
-                        if conflict(c, ei) || conflict(c, ej) || conflict(ei, ej) {
+                        if conflicts.joined(c, ei)
+                            || conflicts.joined(c, ej)
+                            || conflicts.joined(ei, ej)
+                        {
                             continue;
                         }
                         let mut key = [c, ei, ej];
