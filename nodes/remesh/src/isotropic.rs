@@ -2026,14 +2026,12 @@ impl State<'_> {
                 }
                 let c = self.he.from(halfedge::prev(h));
                 let d = self.he.from(halfedge::prev(self.he.opp(h)));
-                let dev = |v: u32, delta: i64| {
-                    let x = valence[v as usize] + delta - self.target_valence(v);
-                    x * x
-                };
                 // a and b are free, off the boundary: their target is 6.
                 let (va, vb) = (valence[a as usize], valence[b as usize]);
-                let before = (va - 6).pow(2) + (vb - 6).pow(2) + dev(c, 0) + dev(d, 0);
-                let after = (va + vb - 10).pow(2) + dev(c, -1) + dev(d, -1);
+                let dc = valence[c as usize] - self.target_valence(c);
+                let dd = valence[d as usize] - self.target_valence(d);
+                let before = (va - 6).pow(2) + (vb - 6).pow(2) + dc * dc + dd * dd;
+                let after = (va + vb - 10).pow(2) + (dc - 1).pow(2) + (dd - 1).pow(2);
                 if after >= before
                     || !self.collapse_allowed_at(h, stretch2, false, COS_FLIP_MIN_ANGLE)
                 {
