@@ -56,7 +56,9 @@
 //! moved the vertices, and a free vertex of a triangle still below 30° moves to the best of
 //! a few nearby positions on the input surface when that raises the smallest angle of its
 //! triangles and they stay within 15° of their mean normal (beside curved features, whose
-//! bends pin short feature edges; on curved patches such moves cost accuracy). Those moves
+//! bends pin short feature edges); where they spread wider, only when the move lifts their
+//! smallest angle to 30° (on curved patches small gains are not worth the change of
+//! surface; the armadillo's conforming remesh kept one triangle of 27.5–28.6°). Those moves
 //! change which flips raise a pair's smallest angle (a free vertex fanning over short
 //! feature edges ends up beside them), so the flip sweep and the moves run once more. Last, where
 //! the output cuts off a tip or a thin rim of the input by more than 0.3 L (the bunny's ears
@@ -1180,7 +1182,8 @@ impl State<'_> {
     /// After the last flips: a free vertex of a triangle still below 30° moves to the best of
     /// a few nearby positions (towards the centroid of its neighbours, and a ring of tangent
     /// steps; each projected onto the input surface) when that raises the smallest angle of
-    /// its triangles and keeps them nearly flat. A few sweeps in face order.
+    /// its triangles and keeps them nearly flat, or on a curved fan lifts it to 30°. A few
+    /// sweeps in face order.
     fn improve_sliver_vertices(&mut self) {
         // What `improve_vertex` finds depends only on the positions of the vertex and its
         // neighbours (connectivity does not change here): a vertex that found no better place
@@ -1915,8 +1918,8 @@ impl State<'_> {
 
     /// Moves free vertex `v` to the best of a few positions (towards its neighbours' centroid,
     /// or tangent steps of 0.05–0.3 of its target length, projected onto the input surface)
-    /// when that raises the smallest angle of its triangles and keeps them nearly flat;
-    /// returns whether it moved.
+    /// when that raises the smallest angle of its triangles and keeps them nearly flat (or, on
+    /// a fan that is not, lifts it to 30°); returns whether it moved.
     fn improve_vertex(&mut self, v: u32) -> bool {
         let p = self.he.position(v);
         let mut c = [0.0; 3];
@@ -1939,8 +1942,9 @@ impl State<'_> {
         } else {
             [0.0, 1.0, 0.0]
         };
-        // Only where the triangles around v are nearly flat (within 15° of their mean
-        // normal, before and after): on a curved patch moving v trades accuracy for angle.
+        // Any gain where the triangles around v are nearly flat (within 15° of their mean
+        // normal, before and after); on a curved patch moving v changes the surface, so
+        // only a move that ends the sliver (30°) is worth it there.
         let faces: Vec<[u32; 3]> = self
             .he
             .outgoing(v)
@@ -1953,9 +1957,7 @@ impl State<'_> {
                 vec3::dot(m, n) >= COS_FLAT * vec3::norm(m)
             })
         };
-        if !flat(p) {
-            return false;
-        }
+        let flat_here = flat(p);
         let e1 = vec3::normalize(vec3::cross(n, seed));
         let e2 = vec3::cross(n, e1);
         let mut candidates: Vec<V3> = [0.25, 0.5, 1.0]
@@ -1975,7 +1977,15 @@ impl State<'_> {
             self.projections += 1;
             self.fallbacks += r.fallback as usize;
             let mut new = -1.0;
-            if self.fan_ok(v, NONE, r.hit.point, &mut new) && new < best.0 && flat(r.hit.point) {
+            if !self.fan_ok(v, NONE, r.hit.point, &mut new) || new >= best.0 {
+                continue;
+            }
+            let ok = if flat_here {
+                flat(r.hit.point)
+            } else {
+                new <= COS_FLIP_MIN_ANGLE && !self.move_leaves_surface(v, r.hit.point)
+            };
+            if ok {
                 best = (new, r.hit.point, r.hit.face);
             }
         }
@@ -2840,7 +2850,7 @@ pub struct IsotropicNode;
 impl NodeKind for IsotropicNode {
     type Params = IsotropicParams;
     const KIND: &'static str = "remesh.isotropic";
-    const VERSION: u32 = 24;
+    const VERSION: u32 = 25;
     const DOC: &'static str = "Isotropic remeshing at a target edge length (Botsch & Kobbelt \
         2004, thesis §5.1.1): splits > 4/3 L, collapses < 4/5 L, valence-improving flips, \
         tangential relaxation (relaxation: Centroids, or Lloyd for Voronoi-cell centroids and \
@@ -2863,6 +2873,8 @@ impl NodeKind for IsotropicNode {
         three or more edges sharper than sharp_angle_deg meet and the surface turns by at \
         least 0.4 pi (a box corner; also with sharp_edges off). Flips and \
         collapses do not create angles below 30° / 20° unless the old ones were smaller. \
+        A free vertex of a triangle still below 30° at the end moves to a nearby place on the \
+        input that widens it (on a curved fan only to 30° or more). \
         Vertices return to the input by a walk from their last face (BVH fallback). `target` \
         is a fraction of the bbox diagonal (relative: true) or absolute. Outputs the mesh and \
         a Report (vertices_out, feature_edges_in/out, feature_chains_from_curves, tip_vertices, part_corners, \
