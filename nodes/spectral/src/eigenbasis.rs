@@ -864,11 +864,11 @@ fn lanczos(
             return Err(EigenbasisError::Breakdown { step: 0 });
         }
     }
-    // Columns 0..m form the basis; columns m..m+b hold the pending block.
+    // Columns 0..m form the basis; columns m..m+b hold the pending block, and its expansion
+    // is computed in place in the b columns after it (m + b ≤ m_max holds at every step:
+    // a step that leaves it larger restarts).
     let mut m = 0usize;
     let mut just_restarted = true;
-    // The block being expanded, reused by every step.
-    let mut w = vec![0.0; n * b];
     let mut steps = 0usize;
     // Ritz vectors of the restarts and of the result, one buffer for all (a fresh n × k
     // block per restart costs page faults).
@@ -884,7 +884,10 @@ fn lanczos(
                 *wi = mi * vi;
             }
         };
-        let pending = &v[j0 * n..(j0 + b) * n];
+        let p = m + b;
+        let (basis, rest) = v.split_at_mut(n * p);
+        let w = &mut rest[..n * b];
+        let pending = &basis[j0 * n..];
         match par {
             Par::Seq => w
                 .chunks_exact_mut(n)
@@ -895,10 +898,9 @@ fn lanczos(
                 .zip(pending.par_chunks_exact(n))
                 .for_each(times_mass),
         }
-        solver.solve_many(&mut w, b, par)?;
+        solver.solve_many(w, b, par)?;
         *solves += b;
         steps += 1;
-        let p = m + b;
         // Block Gram–Schmidt with W_orig = V C + Q R kept exact through every pass. In exact
         // arithmetic S V_J only touches the two newest blocks (the Lanczos recurrence), so
         // the first pass runs against them alone and one pass against the whole basis
@@ -911,18 +913,17 @@ fn lanczos(
         } else {
             p.saturating_sub(2 * b)
         };
-        let c_local = orthogonalize(&mut w, b, &v[n * lo..n * p], p - lo, mass, n, par);
+        let c_local = orthogonalize(w, b, &basis[n * lo..], p - lo, mass, n, par);
         let mut c_acc = vec![0.0; p * b];
         for jj in 0..b {
             c_acc[jj * p + lo..(jj + 1) * p]
                 .copy_from_slice(&c_local[jj * (p - lo)..(jj + 1) * (p - lo)]);
         }
         let mut r_acc =
-            svqb(&mut w, b, mass, n, par).ok_or(EigenbasisError::Breakdown { step: steps })?;
+            svqb(w, b, mass, n, par).ok_or(EigenbasisError::Breakdown { step: steps })?;
         for pass in 0.. {
-            let c = orthogonalize(&mut w, b, &v[..n * p], p, mass, n, par);
-            let r =
-                svqb(&mut w, b, mass, n, par).ok_or(EigenbasisError::Breakdown { step: steps })?;
+            let c = orthogonalize(w, b, basis, p, mass, n, par);
+            let r = svqb(w, b, mass, n, par).ok_or(EigenbasisError::Breakdown { step: steps })?;
             // C += c R_acc; R_acc = r R_acc (all column-major).
             for jj in 0..b {
                 for t in 0..b {
@@ -947,7 +948,6 @@ fn lanczos(
             h[(j0 + jj) * cap + p..(j0 + jj) * cap + p + b]
                 .copy_from_slice(&r_acc[jj * b..(jj + 1) * b]);
         }
-        v[n * p..n * (p + b)].copy_from_slice(&w);
         m = p;
 
         // Rayleigh–Ritz costs a dense m × m eigensolve: run it on every other step, and
