@@ -1310,43 +1310,60 @@ fn a_curve_ending_beside_a_tip_gives_its_end_to_the_tip() {
     }
 }
 
+/// The sharp edges of `input` (`remesh.sharp_edges`, pruned at `prune_scale`) made scale
+/// conforming at `scale` (`scale.conform`): the sharp-edge report, the number of network
+/// edges and the network (the pipeline of graphs/scale-remesh-cad.ron).
+fn conforming_sharp_edges(
+    input: &TriMesh,
+    scale: f64,
+    prune_scale: f64,
+) -> (crestflow_flow::Report, usize, FeatureCurveNetwork) {
+    use crestflow_nodes_remesh::{sharp_edges, SharpEdgesParams};
+    use crestflow_nodes_scale::{conform, ConformParams};
+    let sharp = sharp_edges(
+        input,
+        &SharpEdgesParams {
+            prune_scale,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let c = conform(
+        &sharp.network,
+        input,
+        &ConformParams {
+            scale,
+            ..Default::default()
+        },
+        Par::Rayon,
+    )
+    .unwrap();
+    (sharp.report, c.stats.output_edges, c.network)
+}
+
+/// Remeshing at `target` (relative) constrained by the curves alone (sharp-edge detection
+/// off).
+fn curves_only(target: f64) -> IsotropicParams {
+    IsotropicParams {
+        target,
+        sharp_edges: false,
+        ..Default::default()
+    }
+}
+
 /// On cgal_fandisk_large the sharp edges zig-zag where creases cut across coarse triangles
 /// (1883 edges, 600 vertices with three). Pruned at the scale before `scale.conform`, more of
 /// the creases survive as scale-conforming curves, and the remesh they constrain is closer to
 /// the input, with triangles of at least 30°.
 #[test]
 fn pruned_sharp_edges_keep_more_of_the_large_fandisks_creases_at_scale() {
-    use crestflow_nodes_remesh::{sharp_edges, SharpEdgesParams};
-    use crestflow_nodes_scale::{conform, ConformParams};
     let input = shared_mesh("cad/cgal_fandisk_large.off");
     let scale = 0.02;
     let run = |prune_scale: f64| {
-        let sharp = sharp_edges(
-            &input,
-            &SharpEdgesParams {
-                prune_scale,
-                ..Default::default()
-            },
-        )
-        .unwrap();
-        let c = conform(
-            &sharp.network,
-            &input,
-            &ConformParams {
-                scale,
-                ..Default::default()
-            },
-            Par::Rayon,
-        )
-        .unwrap();
-        let params = IsotropicParams {
-            target: scale,
-            sharp_edges: false,
-            ..Default::default()
-        };
-        let out = isotropic(&input, Some(&c.network), &params, Par::Rayon).unwrap();
+        let (report, edges, network) = conforming_sharp_edges(&input, scale, prune_scale);
+        let out = isotropic(&input, Some(&network), &curves_only(scale), Par::Rayon).unwrap();
         let h = hausdorff(&out.mesh, &input) / input.bbox_diagonal();
-        (sharp.report, c.stats.output_edges, out.mesh, h)
+        (report, edges, out.mesh, h)
     };
     let (plain_report, plain_edges, _, plain_h) = run(0.0);
     let (report, edges, mesh, h) = run(scale);
@@ -1395,30 +1412,8 @@ fn lloyd_relaxation_raises_the_valence_along_scale_conforming_creases() {
     // default relaxation, 0.798 with Lloyd's (bench figures); the creases stay edges of the
     // output either way.
     let input = shared_mesh("cad/cgal_fandisk_large.off");
-    let sharp = crestflow_nodes_remesh::sharp_edges(
-        &input,
-        &crestflow_nodes_remesh::SharpEdgesParams {
-            prune_scale: 0.02,
-            ..Default::default()
-        },
-    )
-    .unwrap();
-    let conforming = crestflow_nodes_scale::conform(
-        &sharp.network,
-        &input,
-        &crestflow_nodes_scale::ConformParams {
-            scale: 0.02,
-            ..Default::default()
-        },
-        Par::Rayon,
-    )
-    .unwrap();
-    let params = IsotropicParams {
-        target: 0.02,
-        sharp_edges: false,
-        ..Default::default()
-    };
-    let [plain, lloyd] = with_relaxation(&input, Some(&conforming.network), &params);
+    let (_, _, network) = conforming_sharp_edges(&input, 0.02, 0.02);
+    let [plain, lloyd] = with_relaxation(&input, Some(&network), &curves_only(0.02));
     assert_manifold(&lloyd);
     let (a, b) = (valence6_share(&plain), valence6_share(&lloyd));
     let lo = min_angle_deg(&lloyd);
@@ -1528,35 +1523,11 @@ fn slivers_on_curved_patches_are_widened_to_thirty_degrees() {
     // corners on curved patches, where the final vertex moves were not made (their triangles
     // spread by more than 15° around the mean normal). There a move is now made when it lifts
     // the fan's smallest angle to 30° (measured 30.02° and 30.03°).
-    use crestflow_nodes_remesh::{sharp_edges, SharpEdgesParams};
-    use crestflow_nodes_scale::{conform, ConformParams};
     let input = midpoint_subdivided(&shared_mesh("organic/cgal_armadillo.off"));
     assert_eq!(input.n_vertices(), 104_002);
     for scale in [0.01, 0.02] {
-        let sharp = sharp_edges(
-            &input,
-            &SharpEdgesParams {
-                prune_scale: scale,
-                ..Default::default()
-            },
-        )
-        .unwrap();
-        let c = conform(
-            &sharp.network,
-            &input,
-            &ConformParams {
-                scale,
-                ..Default::default()
-            },
-            Par::Rayon,
-        )
-        .unwrap();
-        let params = IsotropicParams {
-            target: scale,
-            sharp_edges: false,
-            ..Default::default()
-        };
-        let out = isotropic(&input, Some(&c.network), &params, Par::Rayon).unwrap();
+        let (_, _, network) = conforming_sharp_edges(&input, scale, scale);
+        let out = isotropic(&input, Some(&network), &curves_only(scale), Par::Rayon).unwrap();
         let l = out.report.num("target_abs").unwrap();
         let mesh = out.mesh;
         assert_manifold(&mesh);
