@@ -31,6 +31,20 @@ fn brute_force(bvh: &Bvh, m: &TriMesh, p: V3) -> Hit {
         .unwrap()
 }
 
+/// The same from the mesh's own triangles: squared distance and face.
+fn brute_force_on_mesh(m: &TriMesh, p: V3) -> (f64, u32) {
+    (0..m.n_faces())
+        .map(|f| {
+            let [a, b, c] = m.face_points(f);
+            (
+                crestflow_geom::bvh::closest_point_on_triangle(p, a, b, c).0,
+                f as u32,
+            )
+        })
+        .min_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)))
+        .unwrap()
+}
+
 #[test]
 fn matches_brute_force_with_any_hint() {
     let (m, bvh, points) = sphere_and_queries(12345);
@@ -43,6 +57,16 @@ fn matches_brute_force_with_any_hint() {
         };
         let h = bvh.closest_with_hint(p, hint);
         assert_eq!(h.dist2, brute.dist2, "query {i}");
+        // The triangles are stored in leaf order: the answer still names the mesh's face.
+        assert_eq!((h.dist2, h.face), brute_force_on_mesh(&m, p), "query {i}");
+        let [a, b, c] = m.face_points(h.face as usize);
+        let q = [0, 1, 2].map(|k| h.bary[0] * a[k] + h.bary[1] * b[k] + h.bary[2] * c[k]);
+        assert!(vec3::dist(q, h.point) < 1e-15, "query {i}");
+    }
+    // Every face is where `on_face` looks for it.
+    for f in 0..m.n_faces() as u32 {
+        let p = m.face_points(f as usize)[0];
+        assert_eq!((bvh.on_face(f, p).face, bvh.on_face(f, p).dist2), (f, 0.0));
     }
 }
 
