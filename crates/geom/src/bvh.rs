@@ -3,6 +3,8 @@
 //! point-triangle case analysis. Used by mesh distances (Hausdorff) and by remeshing's
 //! projection back onto the input surface (Botsch & Kobbelt 2004).
 
+use rayon::prelude::*;
+
 use crate::vec3::{self, V3};
 use crate::TriMesh;
 
@@ -156,75 +158,150 @@ pub struct TriangleBvh {
 
 const LEAF_SIZE: usize = 4;
 
-impl TriangleBvh {
-    /// Builds the hierarchy over a copy of the triangles (the mesh's indices must be valid).
-    pub fn new(mesh: &TriMesh) -> Self {
-        let nf = mesh.n_faces();
-        // Each triangle's centroid with its index, in the order the splits leave them: the
-        // splits move these records themselves rather than indices into them, so that the
-        // scans over a node's range read memory in order (on a 208k-face mesh the build
-        // took 81 ms with indices, most of it in cache misses).
-        let mut items: Vec<(V3, u32)> = (0..nf)
-            .map(|f| {
-                let [a, b, c] = mesh.face_points(f);
-                (
-                    vec3::scale(vec3::add(vec3::add(a, b), c), 1.0 / 3.0),
-                    f as u32,
-                )
-            })
-            .collect();
-        let mut nodes = Vec::with_capacity(2 * nf / LEAF_SIZE + 1);
-        nodes.push(BvhNode {
-            bounds: Aabb::EMPTY,
-            first: 0,
-            count: 0,
-        });
-        // Explicit stack of (node, start, end) so deep meshes cannot overflow the call stack.
-        let mut stack = vec![(0usize, 0usize, nf)];
-        while let Some((node, start, end)) = stack.pop() {
-            if end - start <= LEAF_SIZE {
-                // Its box comes with the triangles, once they are in leaf order (below).
-                nodes[node].first = start as u32;
-                nodes[node].count = (end - start) as u32;
-                continue;
-            }
-            let mut cbounds = Aabb::EMPTY;
-            for &(c, _) in &items[start..end] {
-                cbounds.grow(c);
-            }
-            let ext = vec3::sub(cbounds.hi, cbounds.lo);
-            let axis = if ext[0] >= ext[1] && ext[0] >= ext[2] {
-                0
-            } else if ext[1] >= ext[2] {
-                1
-            } else {
-                2
-            };
-            let mid = (start + end) / 2;
-            // Ties broken by face index: the tree (and so nothing downstream) depends on the
-            // sort algorithm.
-            items[start..end].select_nth_unstable_by(mid - start, |x, y| {
-                x.0[axis].total_cmp(&y.0[axis]).then(x.1.cmp(&y.1))
-            });
-            let left = nodes.len();
-            for _ in 0..2 {
-                nodes.push(BvhNode {
-                    bounds: Aabb::EMPTY,
-                    first: 0,
-                    count: 0,
-                });
-            }
-            nodes[node].first = left as u32;
-            nodes[node].count = 0;
-            stack.push((left + 1, mid, end));
-            stack.push((left, start, mid));
+/// Each triangle's centroid with its face index. The splits move these records themselves
+/// rather than indices into them, so that the scans over a node's range read memory in order
+/// (on a 208k-face mesh the build took 81 ms with indices, most of it in cache misses).
+type Item = (V3, u32);
+
+/// Splits `items` at its middle along the longest axis of its centroids: afterwards the first
+/// half holds the smaller centroids on that axis (ties broken by face index, so that the tree
+/// does not depend on the selection algorithm). Returns the middle.
+fn split(items: &mut [Item]) -> usize {
+    let mut cbounds = Aabb::EMPTY;
+    for &(c, _) in items.iter() {
+        cbounds.grow(c);
+    }
+    let ext = vec3::sub(cbounds.hi, cbounds.lo);
+    let axis = if ext[0] >= ext[1] && ext[0] >= ext[2] {
+        0
+    } else if ext[1] >= ext[2] {
+        1
+    } else {
+        2
+    };
+    let mid = items.len() / 2;
+    items.select_nth_unstable_by(mid, |x, y| {
+        x.0[axis].total_cmp(&y.0[axis]).then(x.1.cmp(&y.1))
+    });
+    mid
+}
+
+/// The nodes of the tree over `items` (node 0 its root; a leaf's `first` is `offset` plus its
+/// start in `items`, an inner node's the index of its left child here), boxes left empty.
+fn build_range(items: &mut [Item], offset: usize) -> Vec<BvhNode> {
+    let mut nodes = Vec::with_capacity(2 * items.len() / LEAF_SIZE + 1);
+    nodes.push(BvhNode {
+        bounds: Aabb::EMPTY,
+        first: offset as u32,
+        count: 0,
+    });
+    // Explicit stack of (node, start, end) so deep meshes cannot overflow the call stack.
+    let mut stack = vec![(0usize, 0usize, items.len())];
+    while let Some((node, start, end)) = stack.pop() {
+        if end - start <= LEAF_SIZE {
+            nodes[node].first = (offset + start) as u32;
+            nodes[node].count = (end - start) as u32;
+            continue;
         }
+        let mid = start + split(&mut items[start..end]);
+        let left = nodes.len();
+        for _ in 0..2 {
+            nodes.push(BvhNode {
+                bounds: Aabb::EMPTY,
+                first: 0,
+                count: 0,
+            });
+        }
+        nodes[node].first = left as u32;
+        nodes[node].count = 0;
+        stack.push((left + 1, mid, end));
+        stack.push((left, start, mid));
+    }
+    nodes
+}
+
+/// Ranges at least this long split with their two halves built on the rayon pool.
+const PARALLEL_MIN: usize = 16_384;
+
+/// [`build_range`] with the halves of long ranges built in parallel. The nodes are laid out
+/// as root, its two children, the left subtree's other nodes, the right's: the depth-first
+/// numbering of [`build_range`], so the tree is the same node for node.
+fn build_range_parallel(items: &mut [Item], offset: usize) -> Vec<BvhNode> {
+    if items.len() < PARALLEL_MIN {
+        return build_range(items, offset);
+    }
+    let mid = split(items);
+    let (lo, hi) = items.split_at_mut(mid);
+    let (left, right) = rayon::join(
+        || build_range_parallel(lo, offset),
+        || build_range_parallel(hi, offset + mid),
+    );
+    let n_left = left.len() as u32;
+    // Node i of a half moves to: its root next to the other's, the rest after both roots.
+    let at_left = |i: u32| if i == 0 { 1 } else { i + 2 };
+    let at_right = |i: u32| if i == 0 { 2 } else { i + 1 + n_left };
+    let moved = |node: &BvhNode, at: &dyn Fn(u32) -> u32| BvhNode {
+        first: if node.count == 0 {
+            at(node.first)
+        } else {
+            node.first
+        },
+        ..*node
+    };
+    let mut nodes = Vec::with_capacity(1 + left.len() + right.len());
+    nodes.push(BvhNode {
+        bounds: Aabb::EMPTY,
+        first: 1,
+        count: 0,
+    });
+    nodes.push(moved(&left[0], &at_left));
+    nodes.push(moved(&right[0], &at_right));
+    nodes.extend(left[1..].iter().map(|n| moved(n, &at_left)));
+    nodes.extend(right[1..].iter().map(|n| moved(n, &at_right)));
+    nodes
+}
+
+impl TriangleBvh {
+    /// Builds the hierarchy over a copy of the triangles (the mesh's indices must be valid),
+    /// on the calling thread.
+    pub fn new(mesh: &TriMesh) -> Self {
+        Self::build(mesh, false)
+    }
+
+    /// [`TriangleBvh::new`] with the subtrees of large meshes built on the rayon pool: the
+    /// same tree (the same answers to every query), at any thread count.
+    pub fn new_in_parallel(mesh: &TriMesh) -> Self {
+        Self::build(mesh, true)
+    }
+
+    fn build(mesh: &TriMesh, parallel: bool) -> Self {
+        let nf = mesh.n_faces();
+        let item = |f: usize| -> Item {
+            let [a, b, c] = mesh.face_points(f);
+            (
+                vec3::scale(vec3::add(vec3::add(a, b), c), 1.0 / 3.0),
+                f as u32,
+            )
+        };
+        // (Collected in order either way: the same vectors.)
+        let mut items: Vec<Item> = if parallel {
+            (0..nf).into_par_iter().map(item).collect()
+        } else {
+            (0..nf).map(item).collect()
+        };
+        let mut nodes = if parallel {
+            build_range_parallel(&mut items, 0)
+        } else {
+            build_range(&mut items, 0)
+        };
         let order: Vec<u32> = items.iter().map(|&(_, f)| f).collect();
         drop(items);
-        let tris: Vec<[V3; 3]> = order
-            .iter()
-            .map(|&f| mesh.face_points(f as usize))
-            .collect();
+        let tri = |&f: &u32| mesh.face_points(f as usize);
+        let tris: Vec<[V3; 3]> = if parallel {
+            order.par_iter().map(tri).collect()
+        } else {
+            order.iter().map(tri).collect()
+        };
         let mut slot = vec![0u32; nf];
         for (i, &f) in order.iter().enumerate() {
             slot[f as usize] = i as u32;
@@ -254,6 +331,15 @@ impl TriangleBvh {
             order,
             slot,
         }
+    }
+
+    /// The tree's nodes as (box, first, count), for tests that compare two builds.
+    #[cfg(test)]
+    fn layout(&self) -> Vec<([V3; 2], u32, u32)> {
+        self.nodes
+            .iter()
+            .map(|n| ([n.bounds.lo, n.bounds.hi], n.first, n.count))
+            .collect()
     }
 
     /// Number of triangles.
@@ -377,3 +463,7 @@ fn barycentric_point(bary: [f64; 3], a: V3, b: V3, c: V3) -> V3 {
         bary[0] * a[2] + bary[1] * b[2] + bary[2] * c[2],
     ]
 }
+
+#[cfg(test)]
+#[path = "bvh_test.rs"]
+mod tests;

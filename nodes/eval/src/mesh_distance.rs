@@ -244,8 +244,11 @@ pub fn mesh_distance(
     }
     check_mesh(a, "a")?;
     check_mesh(b, "b")?;
-    let bvh_a = TriangleBvh::new(a);
-    let bvh_b = TriangleBvh::new(b);
+    let build = |m: &TriMesh| match par {
+        Par::Seq => TriangleBvh::new(m),
+        Par::Rayon => TriangleBvh::new_in_parallel(m),
+    };
+    let (bvh_a, bvh_b) = par.join(|| build(a), || build(b));
     // Different streams for the two meshes: identical meshes must not get identical samples
     // by construction only.
     let pa = sample_surface(a, params.samples, params.seed, par);

@@ -433,7 +433,7 @@ fn isotropic_with(
         });
     }
 
-    let proj = Projector::new(mesh);
+    let proj = Projector::new_with(mesh, par);
     let sharp = params.sharp_edges.then_some(params.sharp_angle_deg);
     let mut fe = mark_features(mesh, sharp, curves, &proj)?;
     let chains = build_chains(mesh, &fe, params.corner_angle_deg);
@@ -1323,7 +1323,10 @@ impl State<'_> {
         let alive_faces: Vec<u32> = (0..(self.he.n_halfedge_slots() / 3) as u32)
             .filter(|&g| self.he.is_face_alive(g))
             .collect();
-        let bvh = crestflow_geom::bvh::TriangleBvh::new(&out);
+        let bvh = match par {
+            Par::Seq => crestflow_geom::bvh::TriangleBvh::new(&out),
+            Par::Rayon => crestflow_geom::bvh::TriangleBvh::new_in_parallel(&out),
+        };
         let mut far: Vec<(f64, u32, u32)> = par
             .map_collect(maybe_far.len(), |k| {
                 let c = bvh.closest(input.positions[maybe_far[k] as usize]);

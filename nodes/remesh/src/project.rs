@@ -18,6 +18,7 @@
 //! The answer depends only on the point and the start face, so it is the same at any thread
 //! count.
 
+use crestflow_flow::Par;
 use crestflow_geom::bvh::closest_point_on_triangle;
 use crestflow_geom::mesh::NO_FACE;
 use crestflow_geom::vec3::V3;
@@ -35,6 +36,8 @@ pub struct Projector<'a> {
     mesh: &'a TriMesh,
     /// Built on first use: most runs never need it.
     bvh: OnceLock<Bvh>,
+    /// Whether that build may use the rayon pool.
+    par: Par,
     /// Face across side i = (tri[i], tri[i+1]) of each face (`NO_FACE` on the boundary or at a
     /// non-manifold edge).
     across: Vec<[u32; 3]>,
@@ -49,7 +52,14 @@ pub struct Projection {
 }
 
 impl<'a> Projector<'a> {
+    /// A projector whose hierarchy, when needed, is built on the calling thread.
     pub fn new(mesh: &'a TriMesh) -> Self {
+        Self::new_with(mesh, Par::Seq)
+    }
+
+    /// A projector whose hierarchy is built on the rayon pool under `Par::Rayon` (the same
+    /// hierarchy either way).
+    pub fn new_with(mesh: &'a TriMesh, par: Par) -> Self {
         let topo = mesh.topology();
         let mut nonmanifold = vec![false; topo.edges.len()];
         for &e in &topo.nonmanifold_edges {
@@ -75,13 +85,17 @@ impl<'a> Projector<'a> {
         Projector {
             mesh,
             bvh: OnceLock::new(),
+            par,
             across,
         }
     }
 
     /// The exact closest-point hierarchy over the input (built on the first call).
     pub fn bvh(&self) -> &Bvh {
-        self.bvh.get_or_init(|| Bvh::new(self.mesh))
+        self.bvh.get_or_init(|| match self.par {
+            Par::Seq => Bvh::new(self.mesh),
+            Par::Rayon => Bvh::new_in_parallel(self.mesh),
+        })
     }
 
     fn test(&self, f: u32, p: V3) -> (f64, [f64; 3]) {

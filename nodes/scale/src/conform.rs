@@ -410,13 +410,19 @@ fn resample(
 struct Surface<'a> {
     mesh: &'a TriMesh,
     bvh: std::sync::OnceLock<Option<TriangleBvh>>,
+    par: Par,
 }
 
 impl Surface<'_> {
     /// The hierarchy (none for a mesh without faces).
     fn bvh(&self) -> Option<&TriangleBvh> {
         self.bvh
-            .get_or_init(|| (self.mesh.n_faces() > 0).then(|| TriangleBvh::new(self.mesh)))
+            .get_or_init(|| {
+                (self.mesh.n_faces() > 0).then(|| match self.par {
+                    Par::Seq => TriangleBvh::new(self.mesh),
+                    Par::Rayon => TriangleBvh::new_in_parallel(self.mesh),
+                })
+            })
             .as_ref()
     }
 }
@@ -684,6 +690,7 @@ pub fn conform_with(
     let surface = Surface {
         mesh,
         bvh: std::sync::OnceLock::new(),
+        par,
     };
     let (method, backend) = match params.solver {
         Solver::Ilp => (Method::Ilp, ilp::Backend::Microlp),
