@@ -265,16 +265,18 @@ impl TriangleBvh {
     /// Builds the hierarchy over a copy of the triangles (the mesh's indices must be valid),
     /// on the calling thread.
     pub fn new(mesh: &TriMesh) -> Self {
-        Self::build(mesh, false)
+        Self::new_with(mesh, false)
     }
 
     /// [`TriangleBvh::new`] with the subtrees of large meshes built on the rayon pool: the
     /// same tree (the same answers to every query), at any thread count.
     pub fn new_in_parallel(mesh: &TriMesh) -> Self {
-        Self::build(mesh, true)
+        Self::new_with(mesh, true)
     }
 
-    fn build(mesh: &TriMesh, parallel: bool) -> Self {
+    /// [`TriangleBvh::new_in_parallel`] when `parallel`, else [`TriangleBvh::new`] (for
+    /// callers that pass their thread policy on).
+    pub fn new_with(mesh: &TriMesh, parallel: bool) -> Self {
         let nf = mesh.n_faces();
         let item = |f: usize| -> Item {
             let [a, b, c] = mesh.face_points(f);

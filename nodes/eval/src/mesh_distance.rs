@@ -244,10 +244,7 @@ pub fn mesh_distance(
     }
     check_mesh(a, "a")?;
     check_mesh(b, "b")?;
-    let build = |m: &TriMesh| match par {
-        Par::Seq => TriangleBvh::new(m),
-        Par::Rayon => TriangleBvh::new_in_parallel(m),
-    };
+    let build = |m: &TriMesh| TriangleBvh::new_with(m, par == Par::Rayon);
     let (bvh_a, bvh_b) = par.join(|| build(a), || build(b));
     // Different streams for the two meshes: identical meshes must not get identical samples
     // by construction only.

@@ -1323,10 +1323,7 @@ impl State<'_> {
         let alive_faces: Vec<u32> = (0..(self.he.n_halfedge_slots() / 3) as u32)
             .filter(|&g| self.he.is_face_alive(g))
             .collect();
-        let bvh = match par {
-            Par::Seq => crestflow_geom::bvh::TriangleBvh::new(&out),
-            Par::Rayon => crestflow_geom::bvh::TriangleBvh::new_in_parallel(&out),
-        };
+        let bvh = crestflow_geom::bvh::TriangleBvh::new_with(&out, par == Par::Rayon);
         let mut far: Vec<(f64, u32, u32)> = par
             .map_collect(maybe_far.len(), |k| {
                 let c = bvh.closest(input.positions[maybe_far[k] as usize]);

@@ -92,10 +92,8 @@ impl<'a> Projector<'a> {
 
     /// The exact closest-point hierarchy over the input (built on the first call).
     pub fn bvh(&self) -> &Bvh {
-        self.bvh.get_or_init(|| match self.par {
-            Par::Seq => Bvh::new(self.mesh),
-            Par::Rayon => Bvh::new_in_parallel(self.mesh),
-        })
+        self.bvh
+            .get_or_init(|| Bvh::new_with(self.mesh, self.par == Par::Rayon))
     }
 
     fn test(&self, f: u32, p: V3) -> (f64, [f64; 3]) {

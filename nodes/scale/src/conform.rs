@@ -418,10 +418,8 @@ impl Surface<'_> {
     fn bvh(&self) -> Option<&TriangleBvh> {
         self.bvh
             .get_or_init(|| {
-                (self.mesh.n_faces() > 0).then(|| match self.par {
-                    Par::Seq => TriangleBvh::new(self.mesh),
-                    Par::Rayon => TriangleBvh::new_in_parallel(self.mesh),
-                })
+                (self.mesh.n_faces() > 0)
+                    .then(|| TriangleBvh::new_with(self.mesh, self.par == Par::Rayon))
             })
             .as_ref()
     }
