@@ -233,3 +233,33 @@ fn inspection_commands() {
     let out = run(&["nodes"], dir.path());
     assert!(String::from_utf8_lossy(&out.stdout).contains("io.load_mesh v"));
 }
+
+/// A reader that closes the pipe before the output is written (`crestflow nodes | head -1`)
+/// ends the binary quietly: no panic, no backtrace, killed by SIGPIPE like other Unix tools.
+#[cfg(unix)]
+#[test]
+fn a_closed_stdout_pipe_ends_the_binary_without_a_panic() {
+    use std::os::unix::process::ExitStatusExt;
+    use std::process::Stdio;
+    let dir = tempdir();
+    for args in [&["nodes"][..], &["nodes", "io.load_mesh"]] {
+        let mut child = common::cli::bin()
+            .args(args)
+            .current_dir(dir.path())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .env("RUST_BACKTRACE", "1")
+            .spawn()
+            .expect("the binary runs");
+        // Closing the read end at once: the binary's first write finds no reader.
+        drop(child.stdout.take());
+        let out = child.wait_with_output().expect("the binary ends");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!err.contains("panicked"), "{args:?}: {err}");
+        assert!(
+            out.status.success() || out.status.signal() == Some(13),
+            "{args:?}: {:?} {err}",
+            out.status
+        );
+    }
+}
