@@ -263,3 +263,58 @@ fn a_closed_stdout_pipe_ends_the_binary_without_a_panic() {
         );
     }
 }
+
+/// `--threads` above the limit, or not a number, is a usage error naming the option.
+#[test]
+fn an_impossible_thread_count_is_a_usage_error() {
+    let dir = tempdir();
+    let g = good_graph(dir.path());
+    let gs = g.to_str().unwrap();
+    for (count, says) in [
+        ("100000", "at most 1024 threads"),
+        ("many", "is not a thread count"),
+    ] {
+        let out = run(&["run", gs, "--threads", count], dir.path());
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{err}");
+        assert!(err.contains("--threads") && err.contains(says), "{err}");
+    }
+}
+
+/// A mesh path that names a pipe (or a device) fails its load node with the path and the
+/// reason, and the run ends: neither hashing the input for the cache key nor loading it waits
+/// on the pipe.
+#[cfg(unix)]
+#[test]
+fn a_mesh_path_that_is_a_pipe_fails_its_node_and_the_run_ends() {
+    let dir = tempdir();
+    let g = good_graph(dir.path());
+    let fifo = dir.path().join("scan.off");
+    let c = std::ffi::CString::new(fifo.to_str().unwrap()).unwrap();
+    // SAFETY: a valid NUL-terminated path.
+    assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0);
+    let set = format!("mesh={}", fifo.display());
+    for cache in [&[][..], &["--no-cache"]] {
+        let mut args = vec!["run", g.to_str().unwrap(), "--set", &set, "--log", "json"];
+        args.extend(cache);
+        let out = run(&args, dir.path());
+        assert_eq!(out.status.code(), Some(1), "{args:?}");
+        let events = json_lines(&out);
+        assert_eq!(
+            finished(&events),
+            [
+                ("load".to_string(), "failed".to_string()),
+                ("save".to_string(), "skipped".to_string())
+            ]
+        );
+        let failed = events
+            .iter()
+            .find(|e| e["event"] == "node_finished" && e["node"] == "load")
+            .unwrap();
+        let text = failed.to_string();
+        assert!(
+            text.contains("scan.off") && text.contains("not a regular file"),
+            "{text}"
+        );
+    }
+}

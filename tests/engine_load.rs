@@ -299,3 +299,33 @@ fn truncated_or_garbled_files_give_errors_not_panics() {
     std::fs::write(&p, deep).unwrap();
     assert!(load_file(&p, &reg, &[]).unwrap_err().has(DiagKind::Syntax));
 }
+
+/// A graph path that is a folder, a device or a pipe is refused by name before anything is
+/// read: reading `/dev/zero` or a pipe nobody writes would never end.
+#[test]
+fn a_graph_path_that_is_not_a_regular_file_is_refused() {
+    let dir = tempdir();
+    let mut paths = vec![dir.path().to_path_buf()];
+    #[cfg(unix)]
+    {
+        let device = dir.path().join("device.ron");
+        std::os::unix::fs::symlink("/dev/null", &device).unwrap();
+        let fifo = dir.path().join("fifo.ron");
+        let c = std::ffi::CString::new(fifo.to_str().unwrap()).unwrap();
+        // SAFETY: a valid NUL-terminated path.
+        assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0);
+        paths.extend([device, fifo]);
+    }
+    for p in paths {
+        let e = match load_file(&p, &toy_registry(), &[]) {
+            Err(e) => e,
+            Ok(_) => panic!("{} loaded", p.display()),
+        };
+        let text = e.to_string();
+        assert!(
+            text.contains(&*p.to_string_lossy()) && text.contains("not a regular file"),
+            "{text}"
+        );
+        assert_eq!(kinds_lines(&e)[0].0, DiagKind::Io);
+    }
+}

@@ -363,6 +363,37 @@ fn cancel_leaves_a_valid_cache() {
     assert_eq!(value(&s, "after", "value"), 3.0);
 }
 
+/// A mistyped thread count is refused at once, before a pool tries to start that many threads.
+#[test]
+fn a_thread_count_above_the_limit_is_refused_before_the_pool_starts() {
+    let reg = toy_registry();
+    let dir = tempdir();
+    let g = write(
+        dir.path(),
+        "g.ron",
+        r#"Graph(nodes: { "c": (kind: "toy.const", params: (value: 1.0)) })"#,
+    );
+    let plan = crestflow_flow::load_file(&g, &reg, &[]).unwrap();
+    let opts = |threads| RunOptions {
+        threads,
+        use_cache: false,
+        ..Default::default()
+    };
+    let err = crestflow_flow::run(&plan, &opts(100_000)).unwrap_err();
+    assert!(
+        matches!(
+            err,
+            crestflow_flow::RunError::TooManyThreads { requested: 100_000 }
+        ),
+        "{err:?}"
+    );
+    assert_eq!(
+        err.to_string(),
+        "100000 worker threads requested; at most 1024 (0 = one per core)"
+    );
+    assert!(crestflow_flow::run(&plan, &opts(exec::MAX_THREADS.min(4))).is_ok());
+}
+
 #[test]
 fn same_digests_at_one_and_two_threads() {
     let reg = toy_registry();

@@ -59,7 +59,7 @@ pub enum Command {
         #[arg(long)]
         no_cache: bool,
         /// Worker threads (0 = one per core).
-        #[arg(long, default_value_t = 0)]
+        #[arg(long, default_value_t = 0, value_parser = parse_threads)]
         threads: usize,
         /// Cache folder (default: `.crestflow/cache` next to the graph file).
         #[arg(long, value_name = "DIR")]
@@ -88,7 +88,7 @@ pub enum Command {
         bind: String,
         #[arg(long, value_enum, default_value_t = LogFormat::Human)]
         log: LogFormat,
-        #[arg(long, default_value_t = 0)]
+        #[arg(long, default_value_t = 0, value_parser = parse_threads)]
         threads: usize,
         #[arg(long, value_name = "DIR")]
         cache: Option<PathBuf>,
@@ -108,7 +108,7 @@ pub enum Command {
         file: PathBuf,
         #[arg(long, value_enum, default_value_t = LogFormat::Human)]
         log: LogFormat,
-        #[arg(long, default_value_t = 0)]
+        #[arg(long, default_value_t = 0, value_parser = parse_threads)]
         threads: usize,
         /// Cache folder (default: `.crestflow/cache` next to the experiment file).
         #[arg(long, value_name = "DIR")]
@@ -179,6 +179,19 @@ pub struct CacheArgs {
 }
 
 /// Runs the command line with the given node kinds; returns the exit code.
+/// `--threads`: 0 (one per core) up to [`crestflow_flow::exec::MAX_THREADS`]; a larger
+/// count is refused before a pool would try to start that many threads.
+fn parse_threads(s: &str) -> Result<usize, String> {
+    let n: usize = s
+        .parse()
+        .map_err(|_| format!("`{s}` is not a thread count (0 = one per core)"))?;
+    let max = crestflow_flow::exec::MAX_THREADS;
+    if n > max {
+        return Err(format!("at most {max} threads (0 = one per core)"));
+    }
+    Ok(n)
+}
+
 pub fn main_with(registry: Registry) -> i32 {
     let cli = match Cli::try_parse() {
         Ok(c) => c,

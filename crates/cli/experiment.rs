@@ -153,10 +153,11 @@ impl Src<'_> {
 impl Experiment {
     /// Reads and checks an experiment file (paths in it are relative to its folder).
     pub fn from_file(path: &Path) -> Result<Experiment, ExperimentError> {
-        let text = std::fs::read_to_string(path).map_err(|source| ExperimentError::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
+        let text =
+            crestflow_geom::io::read_text_file(path).map_err(|source| ExperimentError::Io {
+                path: path.to_path_buf(),
+                source,
+            })?;
         Self::parse(&text, path)
     }
 

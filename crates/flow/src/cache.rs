@@ -168,8 +168,16 @@ pub fn unix_now() -> u64 {
         .unwrap_or(0)
 }
 
-/// blake3 of a file's content, hex.
+/// blake3 of a file's content, hex. Only regular files: a device (`/dev/zero`) or a pipe
+/// would never end; the node that reads the path reports the error.
 pub fn hash_file(path: &Path) -> io::Result<String> {
+    // Checked before opening: opening a pipe waits for a writer.
+    if !fs::metadata(path)?.is_file() {
+        return Err(io::Error::new(
+            io::ErrorKind::InvalidInput,
+            "not a regular file",
+        ));
+    }
     let mut h = blake3::Hasher::new();
     let mut f = fs::File::open(path)?;
     io::copy(&mut f, &mut h)?;

@@ -57,3 +57,29 @@ fn stat_memo_notices_changes() {
     assert_eq!(h2, blake3::hash(b"two!").to_hex().to_string());
     let _ = fs::remove_dir_all(&d);
 }
+
+/// Input files are hashed only when they are regular files: a pipe or a device such as
+/// `/dev/zero` would never end (`/dev/null` stands in for them; it would hash as empty).
+#[test]
+fn only_regular_files_are_hashed() {
+    let d = tmpdir("hash-kinds");
+    fs::create_dir_all(&d).unwrap();
+    let err = hash_file(&d).unwrap_err();
+    assert_eq!(err.kind(), io::ErrorKind::InvalidInput);
+    #[cfg(unix)]
+    {
+        let link = d.join("device.off");
+        std::os::unix::fs::symlink("/dev/null", &link).unwrap();
+        let err = hash_file(&link).unwrap_err();
+        assert_eq!(err.kind(), io::ErrorKind::InvalidInput, "{err}");
+        let store = CacheStore::open(&d.join("cache")).unwrap();
+        assert!(store.file_hash(&link).is_err());
+    }
+    let f = d.join("a.txt");
+    fs::write(&f, b"abc").unwrap();
+    assert_eq!(
+        hash_file(&f).unwrap(),
+        blake3::hash(b"abc").to_hex().to_string()
+    );
+    let _ = fs::remove_dir_all(&d);
+}

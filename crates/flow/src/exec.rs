@@ -114,7 +114,7 @@ impl Event {
 /// How to run.
 #[derive(Clone, Debug)]
 pub struct RunOptions {
-    /// Worker threads; 0 means one per core.
+    /// Worker threads; 0 means one per core; at most [`MAX_THREADS`].
     pub threads: usize,
     /// Cache folder; `None` means `<graph folder>/.crestflow/cache`.
     pub cache_dir: Option<PathBuf>,
@@ -149,7 +149,13 @@ pub enum RunError {
     },
     #[error("cannot start the thread pool: {0}")]
     Pool(String),
+    #[error("{requested} worker threads requested; at most {MAX_THREADS} (0 = one per core)")]
+    TooManyThreads { requested: usize },
 }
+
+/// The most worker threads a run accepts: a mistyped count (100000) would otherwise spend
+/// minutes starting threads, or exhaust the process's limit, before anything runs.
+pub const MAX_THREADS: usize = 1024;
 
 /// An output value of a finished node; decoded from the cache on first use.
 pub struct Slot {
@@ -966,6 +972,11 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary, RunError> {
     let prev = store
         .as_ref()
         .and_then(|s| s.history(&graph_id).runs.last().cloned());
+    if opts.threads > MAX_THREADS {
+        return Err(RunError::TooManyThreads {
+            requested: opts.threads,
+        });
+    }
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(opts.threads)
         .thread_name(|i| format!("crestflow-{i}"))

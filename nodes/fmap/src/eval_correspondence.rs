@@ -104,7 +104,7 @@ pub fn parse_ground_truth(
 
 /// Reads a ground-truth file.
 pub fn read_ground_truth(path: &Path, n_source: usize) -> Result<Vec<u32>, FmapError> {
-    let text = std::fs::read_to_string(path).map_err(|e| FmapError::Io {
+    let text = crestflow_geom::io::read_text_file(path).map_err(|e| FmapError::Io {
         path: path.display().to_string(),
         message: e.to_string(),
     })?;

@@ -78,7 +78,7 @@ pub fn parse_landmarks(text: &str, origin: &str) -> Result<LandmarkPairs, FmapEr
 
 /// Reads landmark pairs from a file.
 pub fn read_landmarks(path: &Path) -> Result<LandmarkPairs, FmapError> {
-    let text = std::fs::read_to_string(path).map_err(|e| FmapError::Io {
+    let text = crestflow_geom::io::read_text_file(path).map_err(|e| FmapError::Io {
         path: path.display().to_string(),
         message: e.to_string(),
     })?;

@@ -330,12 +330,37 @@ pub(crate) fn bounded_capacity(n: usize, file_len: usize, min_bytes: usize) -> u
     n.min(file_len / min_bytes.max(1) + 1)
 }
 
+/// The bytes of a file a user named (a mesh, a curve file, a landmark list). Only regular
+/// files, or links to them, are read: a device such as `/dev/zero` or a pipe nobody writes
+/// would otherwise fill memory or wait forever.
+pub fn read_file(path: &Path) -> std::io::Result<Vec<u8>> {
+    if !std::fs::metadata(path)?.is_file() {
+        return Err(not_a_regular_file());
+    }
+    std::fs::read(path)
+}
+
+/// [`read_file`] as UTF-8 text.
+pub fn read_text_file(path: &Path) -> std::io::Result<String> {
+    if !std::fs::metadata(path)?.is_file() {
+        return Err(not_a_regular_file());
+    }
+    std::fs::read_to_string(path)
+}
+
+fn not_a_regular_file() -> std::io::Error {
+    std::io::Error::new(
+        std::io::ErrorKind::InvalidInput,
+        "not a regular file (a folder, a device or a pipe)",
+    )
+}
+
 /// Loads a triangle mesh, choosing the format by extension, then validates and cleans it (see
 /// the module docs for what is an error and what is repaired).
 pub fn load_mesh(path: impl AsRef<Path>, options: &LoadOptions) -> Result<LoadedMesh, MeshError> {
     let path = path.as_ref();
     let format = MeshFormat::from_path(path)?;
-    let bytes = std::fs::read(path).map_err(|source| MeshError::Io {
+    let bytes = read_file(path).map_err(|source| MeshError::Io {
         path: path.to_path_buf(),
         source,
     })?;

@@ -363,7 +363,7 @@ fn num(e: &DefaultElement, name: &str) -> Option<f64> {
 /// and are numbered densely.
 pub fn load_curves_ply(path: impl AsRef<Path>) -> Result<FeatureCurveNetwork, MeshError> {
     let path = path.as_ref();
-    let bytes = std::fs::read(path).map_err(io_err(path))?;
+    let bytes = super::read_file(path).map_err(io_err(path))?;
     let ply = Parser::<DefaultElement>::new()
         .read_ply(&mut &bytes[..])
         .map_err(|e| MeshError::Parse {

@@ -1116,3 +1116,47 @@ fn a_moebius_strip_is_reported_not_orientable() {
         .count();
     assert!(disagree >= 1);
 }
+
+/// Only regular files are read: a folder named like a mesh, and a link to a device (which
+/// could be `/dev/zero`, whose reading never ends; `/dev/null` here, which would read as an
+/// empty file), are refused by name before anything is read.
+#[test]
+fn folders_and_devices_are_refused_before_reading() {
+    let dir = tempfile::tempdir().unwrap();
+    let folder = dir.path().join("folder.off");
+    std::fs::create_dir(&folder).unwrap();
+    let mut paths = vec![folder];
+    #[cfg(unix)]
+    {
+        let link = dir.path().join("device.off");
+        std::os::unix::fs::symlink("/dev/null", &link).unwrap();
+        paths.push(link.clone());
+        let err = read_text_file(&link).unwrap_err();
+        assert_eq!(err.kind(), std::io::ErrorKind::InvalidInput);
+        let link = dir.path().join("curves.ply");
+        std::os::unix::fs::symlink("/dev/null", &link).unwrap();
+        let err = load_curves_ply(&link).unwrap_err().to_string();
+        assert!(
+            err.contains("curves.ply") && err.contains("not a regular file"),
+            "{err}"
+        );
+    }
+    for p in paths {
+        let err = load(&p).unwrap_err();
+        assert!(matches!(err, MeshError::Io { .. }), "{err:?}");
+        let text = err.to_string();
+        assert!(
+            text.contains(&*p.to_string_lossy()) && text.contains("not a regular file"),
+            "{text}"
+        );
+    }
+    // A link to a regular file is read as that file.
+    let real = file(&dir, "tetra.off", TETRA_OFF.as_bytes());
+    #[cfg(unix)]
+    {
+        let link = dir.path().join("link.off");
+        std::os::unix::fs::symlink(&real, &link).unwrap();
+        assert_eq!(load(&link).unwrap().mesh.triangles, TETRA_TRIS);
+    }
+    assert_eq!(load(&real).unwrap().mesh.triangles, TETRA_TRIS);
+}
