@@ -216,22 +216,61 @@ impl HalfEdgeMesh {
     /// keeping the order of the others and all tags. Returns, for each old vertex, its new
     /// index (`NONE` when dropped).
     pub fn compact(&mut self) -> Vec<u32> {
-        let nv = self.positions.len();
-        let mut vmap = vec![NONE; nv];
-        let mut positions = Vec::with_capacity(self.n_live_vertices);
+        let mut vmap = vec![NONE; self.positions.len()];
+        let mut n = 0u32;
         for (v, m) in vmap.iter_mut().enumerate() {
             if self.vertex_alive[v] && self.out[v] != NONE {
-                *m = positions.len() as u32;
-                positions.push(self.positions[v]);
+                *m = n;
+                n += 1;
+            }
+        }
+        let faces: Vec<u32> = (0..self.face_alive.len() as u32)
+            .filter(|&f| self.face_alive[f as usize])
+            .collect();
+        self.rebuild(&faces, vmap, n as usize)
+    }
+
+    /// [`HalfEdgeMesh::compact`] that also renumbers: the live vertices in increasing `key`
+    /// (one per vertex slot; ties keep their order), the faces in the order of their first
+    /// corner in that numbering (ties keep their order). Splits append their vertex at the end
+    /// of the arrays, so after refinement one-rings are scattered; a key that puts each new
+    /// vertex beside the vertices it came from gathers them again. Returns, for each old
+    /// vertex, its new index (`NONE` when dropped).
+    pub fn compact_by_key(&mut self, key: &[u64]) -> Vec<u32> {
+        let nv = self.positions.len();
+        assert_eq!(key.len(), nv, "one key per vertex slot");
+        let mut live: Vec<u32> = (0..nv as u32)
+            .filter(|&v| self.vertex_alive[v as usize] && self.out[v as usize] != NONE)
+            .collect();
+        live.sort_by_key(|&v| key[v as usize]);
+        let mut vmap = vec![NONE; nv];
+        for (i, &v) in live.iter().enumerate() {
+            vmap[v as usize] = i as u32;
+        }
+        let mut faces: Vec<(u32, u32)> = (0..self.face_alive.len() as u32)
+            .filter(|&f| self.face_alive[f as usize])
+            .map(|f| {
+                let first = self.face_vertices(f).map(|v| vmap[v as usize]);
+                (first.into_iter().min().unwrap_or(NONE), f)
+            })
+            .collect();
+        faces.sort_unstable();
+        let faces: Vec<u32> = faces.into_iter().map(|(_, f)| f).collect();
+        self.rebuild(&faces, vmap, live.len())
+    }
+
+    /// The mesh of `faces` (live, in their new order) with vertex `v` renumbered `vmap[v]`
+    /// (`NONE`: dropped; the others number `0..n`). Returns `vmap`.
+    fn rebuild(&mut self, faces: &[u32], vmap: Vec<u32>, n: usize) -> Vec<u32> {
+        let mut positions = vec![[0.0; 3]; n];
+        for (v, &m) in vmap.iter().enumerate() {
+            if m != NONE {
+                positions[m as usize] = self.positions[v];
             }
         }
         let mut fmap = vec![NONE; self.face_alive.len()];
-        let mut nf = 0u32;
-        for (f, m) in fmap.iter_mut().enumerate() {
-            if self.face_alive[f] {
-                *m = nf;
-                nf += 1;
-            }
+        for (i, &f) in faces.iter().enumerate() {
+            fmap[f as usize] = i as u32;
         }
         let map_h = |h: u32| {
             if h == NONE {
@@ -240,34 +279,32 @@ impl HalfEdgeMesh {
                 3 * fmap[face_of(h) as usize] + h % 3
             }
         };
-        let mut corner = Vec::with_capacity(3 * nf as usize);
-        let mut opp = Vec::with_capacity(3 * nf as usize);
-        let mut tag = Vec::with_capacity(3 * nf as usize);
-        for f in 0..self.face_alive.len() {
-            if self.face_alive[f] {
-                for h in 3 * f..3 * f + 3 {
-                    corner.push(vmap[self.corner[h] as usize]);
-                    opp.push(map_h(self.opp[h]));
-                    tag.push(self.tag[h]);
-                }
+        let mut corner = Vec::with_capacity(3 * faces.len());
+        let mut opp = Vec::with_capacity(3 * faces.len());
+        let mut tag = Vec::with_capacity(3 * faces.len());
+        for &f in faces {
+            for h in 3 * f as usize..3 * f as usize + 3 {
+                corner.push(vmap[self.corner[h] as usize]);
+                opp.push(map_h(self.opp[h]));
+                tag.push(self.tag[h]);
             }
         }
-        let mut out = vec![NONE; positions.len()];
+        let mut out = vec![NONE; n];
         for (v, &m) in vmap.iter().enumerate() {
             if m != NONE {
                 out[m as usize] = map_h(self.out[v]);
             }
         }
-        let n = positions.len();
+        let nf = faces.len();
         *self = HalfEdgeMesh {
             positions,
             corner,
             opp,
             tag,
             out,
-            face_alive: vec![true; nf as usize],
+            face_alive: vec![true; nf],
             vertex_alive: vec![true; n],
-            n_live_faces: nf as usize,
+            n_live_faces: nf,
             n_live_vertices: n,
         };
         vmap

@@ -306,3 +306,108 @@ fn collapse_on_boundary_and_link_condition() {
     assert_eq!(he.n_live_faces(), 4);
     assert_eq!(he.euler_characteristic(), 2);
 }
+
+/// After many splits (each appends its vertex), `compact_by_key` with keys along a Morton
+/// curve gives the same surface, tags and boundary with one-rings close together in the
+/// numbering; plain `compact` keeps the scattered order.
+#[test]
+fn compact_by_key_keeps_the_surface_and_gathers_one_rings() {
+    let refined = || {
+        let g = grid(4);
+        let mut he = HalfEdgeMesh::from_trimesh(&g).unwrap();
+        // One tagged boundary side, to follow through the renumbering.
+        let h = he.find_edge(0, 1);
+        let h = if he.is_boundary_edge(h) { h } else { he.opp(h) };
+        he.set_tag(h, 7);
+        // Three sweeps of midpoint splits over the edges there are at the start of each:
+        // the new vertices at the end of the arrays.
+        for _ in 0..3 {
+            let edges: Vec<u32> = (0..he.n_halfedge_slots() as u32)
+                .filter(|&h| he.is_halfedge_alive(h) && he.is_canonical(h))
+                .collect();
+            for h in edges {
+                {
+                    let m = vec3::scale(
+                        vec3::add(he.position(he.from(h)), he.position(he.to(h))),
+                        0.5,
+                    );
+                    he.split_edge(h, m);
+                }
+            }
+        }
+        he.check().unwrap();
+        he
+    };
+    let spread = |he: &HalfEdgeMesh| crate::locality::median_corner_spread(&he.to_trimesh().0);
+    let faces = |he: &HalfEdgeMesh| {
+        let (t, _) = he.to_trimesh();
+        let mut f: Vec<[[u64; 3]; 3]> = t
+            .triangles
+            .iter()
+            .map(|c| {
+                // Each face as its corner positions, rotated to start at the smallest.
+                let p = c.map(|v| t.positions[v as usize].map(f64::to_bits));
+                let k = (0..3).min_by_key(|&k| p[k]).unwrap();
+                [p[k], p[(k + 1) % 3], p[(k + 2) % 3]]
+            })
+            .collect();
+        f.sort_unstable();
+        f
+    };
+    let mut plain = refined();
+    plain.compact();
+    let mut ordered = refined();
+    let by_curve = |he: &HalfEdgeMesh| {
+        let positions: Vec<V3> = (0..he.n_vertex_slots() as u32)
+            .map(|v| he.position(v))
+            .collect();
+        let mut key = vec![0u64; positions.len()];
+        for (rank, v) in crate::locality::morton_order(&positions)
+            .into_iter()
+            .enumerate()
+        {
+            key[v as usize] = rank as u64;
+        }
+        key
+    };
+    let map = ordered.compact_by_key(&by_curve(&ordered));
+    ordered.check().unwrap();
+    assert_eq!(ordered.n_vertex_slots(), plain.n_vertex_slots());
+    assert!(ordered.n_vertex_slots() > 1000);
+    assert_eq!(faces(&ordered), faces(&plain));
+    assert_eq!(ordered.euler_characteristic(), 1);
+    // A permutation of the vertices, positions carried along.
+    let original = refined();
+    let mut seen = vec![false; map.len()];
+    for (old, &new) in map.iter().enumerate() {
+        assert!(!std::mem::replace(&mut seen[new as usize], true));
+        assert_eq!(ordered.position(new), original.position(old as u32));
+    }
+    // The tagged pieces of the split side 0 → 1 keep their tag: as many as before, all on
+    // that side, the first starting at old vertex 0.
+    let tagged = |he: &HalfEdgeMesh| -> Vec<u32> {
+        (0..he.n_halfedge_slots() as u32)
+            .filter(|&h| he.is_halfedge_alive(h) && he.tag(h) == 7)
+            .collect()
+    };
+    let pieces = tagged(&ordered);
+    assert_eq!(pieces.len(), tagged(&plain).len());
+    assert!(pieces.len() > 1);
+    for &h in &pieces {
+        for v in [ordered.from(h), ordered.to(h)] {
+            let p = ordered.position(v);
+            assert!(p[1] == 0.0 && (0.0..=0.25).contains(&p[0]), "{p:?}");
+        }
+    }
+    assert!(pieces
+        .iter()
+        .any(|&h| ordered.from(h) == map[0] || ordered.to(h) == map[0]));
+    let (before, after) = (spread(&plain), spread(&ordered));
+    assert!(
+        before > 200 && after < 40,
+        "median corner spread {before} → {after}"
+    );
+    let mut again = refined();
+    again.compact_by_key(&by_curve(&again));
+    assert_eq!(again.to_trimesh(), ordered.to_trimesh());
+}
