@@ -1566,3 +1566,37 @@ fn refinement_renumbers_split_vertices_beside_their_origin() {
     assert_eq!(seq.positions, out.positions);
     assert_eq!(seq.triangles, out.triangles);
 }
+
+/// Units do not matter: a sphere scaled by 1e50 or 1e-50 (within the loader's ±1e60, where
+/// fourth powers of coordinates stay finite) is remeshed like the unit one at the same
+/// relative target.
+#[test]
+fn remeshing_does_not_depend_on_the_scale() {
+    let unit = shapes::sphere(1.0, 3).unwrap();
+    let params = IsotropicParams {
+        target: 0.03,
+        ..Default::default()
+    };
+    let reference = isotropic(&unit, None, &params, Par::Seq).unwrap().mesh;
+    for s in [1e50, 1e-50] {
+        let scaled = TriMesh::new(
+            unit.positions.iter().map(|&p| vec3::scale(p, s)).collect(),
+            unit.triangles.clone(),
+        );
+        let out = isotropic(&scaled, None, &params, Par::Seq).unwrap().mesh;
+        assert_manifold(&out);
+        let (n, n0) = (out.n_vertices() as f64, reference.n_vertices() as f64);
+        assert!(
+            (n / n0 - 1.0).abs() < 0.02,
+            "scale {s}: {n} vertices, {n0} at scale 1"
+        );
+        let lo = min_angle_deg(&out);
+        assert!(lo >= 30.0, "scale {s}: min angle {lo:.2}°");
+        let r = out
+            .positions
+            .iter()
+            .map(|&p| vec3::norm(p) / s)
+            .fold((f64::MAX, 0.0f64), |(a, b), x| (a.min(x), b.max(x)));
+        assert!(r.0 > 0.99 && r.1 < 1.0 + 1e-9, "scale {s}: radii {r:?}");
+    }
+}

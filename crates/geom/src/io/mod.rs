@@ -8,6 +8,7 @@
 //! |---|---|
 //! | no vertices or no faces | [`MeshError::Empty`] |
 //! | NaN or infinite coordinate | [`MeshError::NonFinite`] naming the vertex |
+//! | coordinate beyond ±[`MAX_COORDINATE`] (squared lengths would overflow) | [`MeshError::CoordinateTooLarge`] naming the vertex |
 //! | face index outside the vertex list | [`MeshError::IndexOutOfRange`] naming face, index, line |
 //! | polygon with more than 3 corners | fan-triangulated, counted |
 //! | face with a repeated vertex index (or < 3 corners) | dropped and counted; an error with [`LoadOptions::reject_degenerate`] |
@@ -203,6 +204,16 @@ pub enum MeshError {
         value: f64,
     },
     #[error(
+        "{}: vertex {vertex} has a coordinate of {value:e}, beyond ±{MAX_COORDINATE:e}: squared \
+         lengths and areas would overflow (scale the mesh down)",
+        path.display()
+    )]
+    CoordinateTooLarge {
+        path: PathBuf,
+        vertex: usize,
+        value: f64,
+    },
+    #[error(
         "{}{}: face {face} references vertex {index} but the mesh has {n_vertices} vertices \
          (indices counted from 0)",
         path.display(), line.map(|l| format!(":{l}")).unwrap_or_default()
@@ -247,6 +258,7 @@ impl MeshError {
             | MeshError::Truncated { path, .. }
             | MeshError::Empty { path, .. }
             | MeshError::NonFinite { path, .. }
+            | MeshError::CoordinateTooLarge { path, .. }
             | MeshError::IndexOutOfRange { path, .. }
             | MeshError::DegenerateFace { path, .. }
             | MeshError::NonManifold { path, .. }
@@ -329,6 +341,12 @@ impl RawMesh {
 pub(crate) fn bounded_capacity(n: usize, file_len: usize, min_bytes: usize) -> usize {
     n.min(file_len / min_bytes.max(1) + 1)
 }
+
+/// The largest coordinate magnitude a loaded mesh may have. Norms of cross products square
+/// products of two coordinates (fourth powers), which overflow above about 1e77; below 1e60
+/// they stay finite with room for sums. No physical model needs more (a light year in
+/// millimetres is 1e19).
+pub const MAX_COORDINATE: f64 = 1e60;
 
 /// The bytes of a file a user named (a mesh, a curve file, a landmark list). Only regular
 /// files, or links to them, are read: a device such as `/dev/zero` or a pipe nobody writes

@@ -197,6 +197,15 @@ pub(crate) fn build(
                 value,
             });
         }
+        // Finite but so large that the curvature fit, normals and areas overflow to NaN
+        // downstream, where the error would name a curvature field instead of the file.
+        if let Some(&value) = p.iter().find(|c| c.abs() > super::MAX_COORDINATE) {
+            return Err(MeshError::CoordinateTooLarge {
+                path: path.to_path_buf(),
+                vertex: v,
+                value,
+            });
+        }
     }
     let mut report = LoadReport {
         format: raw.format.to_string(),

@@ -285,6 +285,33 @@ fn empty_files_are_empty_errors() {
     }
 }
 
+/// A finite coordinate whose fourth power overflows (1e300, or 1e100) is refused at load,
+/// naming the vertex; the largest allowed magnitude loads.
+#[test]
+fn coordinates_too_large_for_squared_lengths_name_the_vertex() {
+    let d = tempfile::tempdir().unwrap();
+    let off = TETRA_OFF.replace("0 0 1\n", "0 0 -1e300\n");
+    let p = file(&d, "huge.off", off.as_bytes());
+    match load(&p) {
+        Err(e @ MeshError::CoordinateTooLarge { vertex: 3, .. }) => {
+            let text = e.to_string();
+            assert!(
+                text.contains("huge.off") && text.contains("-1e300"),
+                "{text}"
+            );
+        }
+        other => panic!("{other:?}"),
+    }
+    let off = TETRA_OFF.replace("0 0 1\n", "0 0 1e100\n");
+    assert!(matches!(
+        load(&file(&d, "big.off", off.as_bytes())),
+        Err(MeshError::CoordinateTooLarge { vertex: 3, value, .. }) if value == 1e100
+    ));
+    let off = TETRA_OFF.replace("0 0 1\n", "0 0 1e60\n");
+    let m = load(&file(&d, "edge.off", off.as_bytes())).unwrap().mesh;
+    assert_eq!(m.positions[3], [0.0, 0.0, 1e60]);
+}
+
 #[test]
 fn non_finite_coordinates_name_the_vertex() {
     let d = tempfile::tempdir().unwrap();
