@@ -329,3 +329,18 @@ fn a_graph_path_that_is_not_a_regular_file_is_refused() {
         assert_eq!(kinds_lines(&e)[0].0, DiagKind::Io);
     }
 }
+
+/// A graph saved with a UTF-8 byte-order mark loads like the same text without it.
+#[test]
+fn a_byte_order_mark_before_the_graph_is_skipped() {
+    let dir = tempdir();
+    let text = r#"Graph(nodes: { "c": (kind: "toy.const", params: (value: 2.5)) })"#;
+    let plain = write(dir.path(), "plain.ron", text);
+    let marked = write(dir.path(), "marked.ron", &format!("\u{feff}{text}"));
+    let reg = toy_registry();
+    let a = load_file(&plain, &reg, &[]).unwrap();
+    let b = load_file(&marked, &reg, &[]).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(a.nodes.len(), 1);
+    assert_eq!(b.nodes.len(), a.nodes.len());
+    assert_eq!(b.nodes[0].name, "c");
+}

@@ -146,7 +146,9 @@ impl Graph {
         } else {
             base
         };
-        Graph::from_ron(&text, Some(path), &base)
+        // A byte-order mark (some Windows editors write one) is not part of the RON.
+        let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
+        Graph::from_ron(text, Some(path), &base)
     }
 
     /// Parses pipeline text. Structural problems are all reported, each with its location.

@@ -358,12 +358,17 @@ pub fn read_file(path: &Path) -> std::io::Result<Vec<u8>> {
     std::fs::read(path)
 }
 
-/// [`read_file`] as UTF-8 text.
+/// [`read_file`] as UTF-8 text, without a leading byte-order mark (some Windows editors
+/// write one; parsers would see it as a stray character on line 1).
 pub fn read_text_file(path: &Path) -> std::io::Result<String> {
     if !std::fs::metadata(path)?.is_file() {
         return Err(not_a_regular_file());
     }
-    std::fs::read_to_string(path)
+    let text = std::fs::read_to_string(path)?;
+    Ok(match text.strip_prefix('\u{feff}') {
+        Some(rest) => rest.to_string(),
+        None => text,
+    })
 }
 
 fn not_a_regular_file() -> std::io::Error {
@@ -399,6 +404,13 @@ pub fn load_mesh_bytes(
             faces: 0,
         });
     }
+    // Text files saved by some Windows editors start with a UTF-8 byte-order mark; without
+    // this the first line (an OBJ `v`, the OFF or PLY magic) would not be recognised. A binary
+    // STL's 80-byte header may start with anything, so STL drops it only before `solid`.
+    let bytes = match bytes.strip_prefix(b"\xEF\xBB\xBF") {
+        Some(rest) if format != MeshFormat::Stl || rest.starts_with(b"solid") => rest,
+        _ => bytes,
+    };
     let raw = match format {
         MeshFormat::Obj => obj::read(bytes, path)?,
         MeshFormat::Off => off::read(bytes, path)?,

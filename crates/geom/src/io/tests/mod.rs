@@ -1187,3 +1187,37 @@ fn folders_and_devices_are_refused_before_reading() {
     }
     assert_eq!(load(&real).unwrap().mesh.triangles, TETRA_TRIS);
 }
+
+/// A UTF-8 byte-order mark before the text (as some Windows editors save files) is skipped in
+/// every text format; the first line is read as usual.
+#[test]
+fn a_byte_order_mark_is_skipped() {
+    let d = tempfile::tempdir().unwrap();
+    let bom = |text: &str| [&b"\xEF\xBB\xBF"[..], text.as_bytes()].concat();
+    let obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n";
+    let ply = "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n\
+               property float z\nelement face 4\nproperty list uchar int vertex_indices\n\
+               end_header\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n";
+    let stl = "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\n\
+               vertex 0 1 0\nendloop\nendfacet\nendsolid t\n";
+    for (name, text, vertices, faces) in [
+        ("t.obj", obj, 4, 4),
+        ("t.off", TETRA_OFF, 4, 4),
+        ("t.ply", ply, 4, 4),
+        ("t.stl", stl, 3, 1),
+    ] {
+        let plain = load(&file(&d, name, text.as_bytes())).unwrap().mesh;
+        let marked = load(&file(&d, &format!("bom_{name}"), &bom(text)))
+            .unwrap_or_else(|e| panic!("{name}: {e}"))
+            .mesh;
+        assert_eq!(
+            (marked.n_vertices(), marked.n_faces()),
+            (vertices, faces),
+            "{name}"
+        );
+        assert_eq!(marked, plain, "{name}");
+    }
+    // The text files of other nodes (landmarks, ground truth, experiments) too.
+    let p = file(&d, "pairs.txt", &bom("# pairs\n0 1\n"));
+    assert_eq!(read_text_file(&p).unwrap(), "# pairs\n0 1\n");
+}
