@@ -168,16 +168,24 @@ pub fn unix_now() -> u64 {
         .unwrap_or(0)
 }
 
-/// blake3 of a file's content, hex. Only regular files: a device (`/dev/zero`) or a pipe
-/// would never end; the node that reads the path reports the error.
-pub fn hash_file(path: &Path) -> io::Result<String> {
-    // Checked before opening: opening a pipe waits for a writer.
-    if !fs::metadata(path)?.is_file() {
-        return Err(io::Error::new(
+/// An error unless `path` is a regular file (or a link to one). Reading a device such as
+/// `/dev/zero`, or a pipe nobody writes, would never end; this is checked before opening,
+/// since opening a pipe already waits for a writer.
+pub(crate) fn ensure_regular_file(path: &Path) -> io::Result<()> {
+    if fs::metadata(path)?.is_file() {
+        Ok(())
+    } else {
+        Err(io::Error::new(
             io::ErrorKind::InvalidInput,
-            "not a regular file",
-        ));
+            "not a regular file (a folder, a device or a pipe)",
+        ))
     }
+}
+
+/// blake3 of a file's content, hex. Only regular files ([`ensure_regular_file`]); the node
+/// that reads the path reports the error.
+pub fn hash_file(path: &Path) -> io::Result<String> {
+    ensure_regular_file(path)?;
     let mut h = blake3::Hasher::new();
     let mut f = fs::File::open(path)?;
     io::copy(&mut f, &mut h)?;

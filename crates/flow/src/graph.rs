@@ -124,22 +124,16 @@ impl Graph {
 
     /// Reads and parses a pipeline file.
     pub fn from_file(path: &Path) -> Result<Graph, LoadError> {
-        // Only regular files: a device (`/dev/zero`) or a pipe would never end.
-        let text = match std::fs::metadata(path) {
-            Ok(m) if !m.is_file() => Err(std::io::Error::new(
-                std::io::ErrorKind::InvalidInput,
-                "not a regular file (a folder, a device or a pipe)",
-            )),
-            _ => std::fs::read_to_string(path),
-        };
-        let text = text.map_err(|e| LoadError {
-            file: Some(path.to_path_buf()),
-            source_text: None,
-            diagnostics: vec![Diagnostic::new(
-                DiagKind::Io,
-                format!("cannot read {}: {e}", path.display()),
-            )],
-        })?;
+        let text = crate::cache::ensure_regular_file(path)
+            .and_then(|()| std::fs::read_to_string(path))
+            .map_err(|e| LoadError {
+                file: Some(path.to_path_buf()),
+                source_text: None,
+                diagnostics: vec![Diagnostic::new(
+                    DiagKind::Io,
+                    format!("cannot read {}: {e}", path.display()),
+                )],
+            })?;
         let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
         let base = if base.as_os_str().is_empty() {
             PathBuf::from(".")

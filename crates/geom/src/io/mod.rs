@@ -352,18 +352,14 @@ pub const MAX_COORDINATE: f64 = 1e60;
 /// files, or links to them, are read: a device such as `/dev/zero` or a pipe nobody writes
 /// would otherwise fill memory or wait forever.
 pub fn read_file(path: &Path) -> std::io::Result<Vec<u8>> {
-    if !std::fs::metadata(path)?.is_file() {
-        return Err(not_a_regular_file());
-    }
+    ensure_regular_file(path)?;
     std::fs::read(path)
 }
 
 /// [`read_file`] as UTF-8 text, without a leading byte-order mark (some Windows editors
 /// write one; parsers would see it as a stray character on line 1).
 pub fn read_text_file(path: &Path) -> std::io::Result<String> {
-    if !std::fs::metadata(path)?.is_file() {
-        return Err(not_a_regular_file());
-    }
+    ensure_regular_file(path)?;
     let text = std::fs::read_to_string(path)?;
     Ok(match text.strip_prefix('\u{feff}') {
         Some(rest) => rest.to_string(),
@@ -371,11 +367,16 @@ pub fn read_text_file(path: &Path) -> std::io::Result<String> {
     })
 }
 
-fn not_a_regular_file() -> std::io::Error {
-    std::io::Error::new(
-        std::io::ErrorKind::InvalidInput,
-        "not a regular file (a folder, a device or a pipe)",
-    )
+/// Checked before opening: opening a pipe already waits for a writer.
+fn ensure_regular_file(path: &Path) -> std::io::Result<()> {
+    if std::fs::metadata(path)?.is_file() {
+        Ok(())
+    } else {
+        Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            "not a regular file (a folder, a device or a pipe)",
+        ))
+    }
 }
 
 /// Loads a triangle mesh, choosing the format by extension, then validates and cleans it (see
