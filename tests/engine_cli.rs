@@ -148,6 +148,79 @@ fn run_exits_0_and_logs_json_events() {
 }
 
 #[test]
+fn an_output_folder_set_on_the_command_line_is_relative_to_the_shell() {
+    // `--set out=results` for a folder that does not exist yet: it used to land beside the
+    // graph file on the first run and in the shell's folder once it existed, so the second
+    // run saw new keys and ran again.
+    let dir = tempdir();
+    let graphs = dir.path().join("graphs");
+    std::fs::create_dir(&graphs).unwrap();
+    let m = mesh("cad/cgal_pinion.off");
+    let g = write(
+        &graphs,
+        "g.ron",
+        &format!(
+            r#"Graph(
+    params: {{ "mesh": {m:?}, "out": "../out/g" }},
+    nodes: {{
+        "load": (kind: "io.load_mesh", params: (path: "$mesh")),
+        "save": (kind: "io.save_report", params: (path: "$out/report.json"), inputs: {{ "report": "load.report" }}),
+    }},
+)"#
+        ),
+    );
+    let gs = g.to_str().unwrap();
+    let args = ["run", gs, "--log", "json", "--set", "out=results"];
+    let out = run(&args, dir.path());
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(dir.path().join("results/report.json").is_file());
+    assert!(!graphs.join("results").exists());
+    let out = run(&args, dir.path());
+    assert_eq!(
+        finished(&json_lines(&out)),
+        vec![
+            ("load".into(), "cached".into()),
+            ("save".into(), "cached".into())
+        ]
+    );
+}
+
+#[test]
+fn cache_commands_take_a_folder_of_graphs_and_refuse_a_cache_folder() {
+    let dir = tempdir();
+    let graphs = dir.path().join("graphs");
+    std::fs::create_dir(&graphs).unwrap();
+    let g = good_graph(&graphs);
+    assert_eq!(
+        run(&["run", g.to_str().unwrap()], dir.path()).status.code(),
+        Some(0)
+    );
+    // A folder of graphs means the cache inside it (it used to mean the one of the folder
+    // above, so that `cache clear graphs` cleared another cache).
+    let stats = run(&["cache", "stats", "graphs"], dir.path());
+    let text = String::from_utf8_lossy(&stats.stdout).to_string();
+    assert!(text.contains("entries         2"), "{text}");
+    // A cache folder as GRAPH is refused, and nothing is deleted.
+    let cache = graphs.join(".crestflow/cache");
+    let clear = run(&["cache", "clear", cache.to_str().unwrap()], dir.path());
+    assert_eq!(clear.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&clear.stderr).to_string();
+    assert!(
+        err.contains("is a cache folder") && err.contains("--cache"),
+        "{err}"
+    );
+    assert!(cache.join("entries").read_dir().unwrap().next().is_some());
+    let why = run(&["why", "graphs", "load"], dir.path());
+    assert_eq!(why.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&why.stderr).contains("needs a graph file"));
+}
+
+#[test]
 fn a_failing_node_exits_1_and_is_listed() {
     let dir = tempdir();
     let m = mesh("cad/cgal_pinion.off");

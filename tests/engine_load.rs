@@ -4,7 +4,7 @@
 mod common;
 
 use common::*;
-use crestflow_flow::{load, load_file, parse_set, DiagKind, Graph, LoadError};
+use crestflow_flow::{load, load_file, parse_set, parse_set_for, DiagKind, Graph, LoadError};
 
 fn load_err(text: &str) -> LoadError {
     let dir = tempdir();
@@ -241,6 +241,44 @@ fn set_values_that_are_relative_paths_become_absolute() {
     );
     assert_eq!(parse_set("k=0.5", dir.path()).unwrap().1, "0.5");
     assert!(parse_set("novalue", dir.path()).is_err());
+}
+
+#[test]
+fn set_values_of_path_params_become_absolute_before_they_exist() {
+    let dir = tempdir();
+    let g = write(
+        dir.path(),
+        "g.ron",
+        r#"Graph(
+  params: { "mesh": "../data/x.off", "scan": "scan.ply", "out": "../out/x", "dir": "res",
+            "method": "fast", "k": "1.5", "n": 3 },
+  nodes: { "r": (kind: "toy.read_file", params: (path: "${dir}/$method.txt")) },
+)"#,
+    );
+    let graph = Graph::from_file(&g).unwrap();
+    let names: Vec<String> = crestflow_flow::path_params(&graph).into_iter().collect();
+    // A folder part or a file extension in the default, or a use as a folder (`${dir}/`);
+    // "1.5" is a number written as a string, "fast" a word.
+    assert_eq!(names, ["dir", "mesh", "out", "scan"]);
+    let cwd = dir.path().join("shell");
+    std::fs::create_dir(&cwd).unwrap();
+    let abs = |s: &str| crestflow_flow::spanned::quote(&cwd.join(s).to_string_lossy());
+    let set = |a: &str| parse_set_for(a, &cwd, &graph).unwrap().1;
+    // Nothing of these exists yet: they are still taken relative to the shell's folder.
+    assert_eq!(set("out=results"), abs("results"));
+    assert_eq!(set("dir=new"), abs("new"));
+    assert_eq!(set("mesh=nosuchdir/y.off"), abs("nosuchdir/y.off"));
+    // Without the graph the same words stay strings (resolved beside the graph file).
+    assert_eq!(parse_set("out=results", &cwd).unwrap().1, "\"results\"");
+    // Other params keep the rules of `parse_set`.
+    assert_eq!(set("method=slow"), "\"slow\"");
+    assert_eq!(set("k=2"), "2");
+    // Absolute paths stay as they are.
+    let elsewhere = dir.path().join("elsewhere").to_string_lossy().into_owned();
+    assert_eq!(
+        set(&format!("out={elsewhere}")),
+        crestflow_flow::spanned::quote(&elsewhere)
+    );
 }
 
 #[test]

@@ -259,16 +259,22 @@ fn file_graph() -> String {
     .to_string()
 }
 
+/// [`file_graph`] in `dir` watched with the input folder `dir/drop`, after its first run.
+fn watch_a_drop_folder(dir: &Path) -> (PathBuf, Watcher) {
+    write(dir, "seed.off", "seed");
+    std::fs::create_dir(dir.join("out")).unwrap();
+    let drop = dir.join("drop");
+    std::fs::create_dir(&drop).unwrap();
+    let g = write(dir, "graph.ron", &file_graph());
+    let mut w = Watcher::start(&g, vec![drop.clone()]);
+    w.run_finished(1);
+    (drop, w)
+}
+
 #[test]
 fn new_file_in_input_folder_runs_its_pipeline() {
     let dir = tempdir();
-    write(dir.path(), "seed.off", "seed");
-    std::fs::create_dir(dir.path().join("out")).unwrap();
-    let drop = dir.path().join("drop");
-    std::fs::create_dir(&drop).unwrap();
-    let g = write(dir.path(), "graph.ron", &file_graph());
-    let mut w = Watcher::start(&g, vec![drop.clone()]);
-    w.run_finished(1);
+    let (drop, mut w) = watch_a_drop_folder(dir.path());
     assert_eq!(report_x(&w.seen, 1, "rep"), Some(4.0));
 
     // Editor noise and a file that is not a mesh: nothing runs.
@@ -300,6 +306,27 @@ fn new_file_in_input_folder_runs_its_pipeline() {
     let (target, _) = started(&w.seen, 3).unwrap();
     assert!(matches!(target, Target::File(_)));
     assert_eq!(report_x(&w.seen, 3, "rep"), Some(9.0));
+    w.stop();
+}
+
+#[test]
+fn a_file_still_being_written_runs_once_when_it_is_quiet() {
+    let dir = tempdir();
+    let (drop, mut w) = watch_a_drop_folder(dir.path());
+    // A scanner writing in six pieces, 150 ms apart (more than the debounce, less than the
+    // settle time): each pause used to start a run on a truncated file.
+    {
+        use std::io::Write as _;
+        let mut f = std::fs::File::create(drop.join("scan.off")).unwrap();
+        for _ in 0..6 {
+            f.write_all(b"0123456789").unwrap();
+            f.flush().unwrap();
+            std::thread::sleep(Duration::from_millis(150));
+        }
+    }
+    w.run_finished(2);
+    assert_eq!(report_x(&w.seen, 2, "rep"), Some(60.0));
+    assert!(w.quiet_for(Duration::from_millis(800)), "{:#?}", w.seen);
     w.stop();
 }
 

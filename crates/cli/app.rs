@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 
 use clap::{Parser, Subcommand, ValueEnum};
 use crestflow_flow::{
-    exec, load_file, parse_set, CacheStore, CancelToken, Event, LoadError, Plan, Registry,
+    exec, parse_set_for, CacheStore, CancelToken, Event, Graph, LoadError, Plan, Registry,
     RunOptions, Status,
 };
 use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -95,6 +95,10 @@ pub enum Command {
         /// Quiet time in milliseconds that ends a burst of file events.
         #[arg(long, value_name = "MS", default_value_t = 50)]
         debounce_ms: u64,
+        /// Quiet time in milliseconds an input file needs before its run starts (a file still
+        /// being written is not read).
+        #[arg(long, value_name = "MS", default_value_t = 500)]
+        settle_ms: u64,
         /// Stop after N finished runs.
         #[arg(long, value_name = "N")]
         max_runs: Option<usize>,
@@ -171,7 +175,8 @@ pub enum CacheAction {
 
 #[derive(clap::Args, Debug)]
 pub struct CacheArgs {
-    /// A graph file: its cache folder is `.crestflow/cache` next to it.
+    /// A graph file: its cache folder is `.crestflow/cache` next to it (a folder of graphs:
+    /// the one inside it).
     pub graph: Option<PathBuf>,
     /// The cache folder (default: `.crestflow/cache` next to GRAPH, or in the current folder).
     #[arg(long, value_name = "DIR")]
@@ -241,6 +246,7 @@ pub fn execute(cli: Cli, registry: &Registry) -> i32 {
             threads,
             cache,
             debounce_ms,
+            settle_ms,
             max_runs,
             exit_after,
         } => crate::watch::watch_cmd(
@@ -253,6 +259,7 @@ pub fn execute(cli: Cli, registry: &Registry) -> i32 {
                 cache,
                 threads,
                 debounce: Duration::from_millis(debounce_ms),
+                settle: Duration::from_millis(settle_ms),
                 max_runs,
                 exit_after: exit_after.and_then(|s| Duration::try_from_secs_f64(s.max(0.0)).ok()),
                 ..Default::default()
@@ -301,7 +308,20 @@ pub fn execute(cli: Cli, registry: &Registry) -> i32 {
             Err(code) => code,
         },
         Command::Why { graph, node, cache } => {
-            let dir = cache_dir(Some(&graph), cache.as_deref());
+            if graph.is_dir() {
+                eprintln!(
+                    "error: {} is a folder: `why` needs a graph file",
+                    graph.display()
+                );
+                return EXIT_INVALID;
+            }
+            let dir = match cache_dir(Some(&graph), cache.as_deref()) {
+                Ok(d) => d,
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    return EXIT_INVALID;
+                }
+            };
             let store = match CacheStore::open(&dir) {
                 Ok(s) => s,
                 Err(e) => {
@@ -324,15 +344,32 @@ pub fn execute(cli: Cli, registry: &Registry) -> i32 {
     }
 }
 
-fn cache_dir(graph: Option<&Path>, cache: Option<&Path>) -> PathBuf {
+/// The cache folder a `cache` command works on. GRAPH may be a graph file or the folder of
+/// graphs (`graphs/` used to mean the cache of the folder above it, which `cache clear` then
+/// deleted); a cache folder itself must come with `--cache`, so that no command guesses what
+/// to delete.
+fn cache_dir(graph: Option<&Path>, cache: Option<&Path>) -> Result<PathBuf, String> {
     if let Some(c) = cache {
-        return c.to_path_buf();
+        return Ok(c.to_path_buf());
     }
-    let base = match graph.and_then(Path::parent) {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => PathBuf::from("."),
+    let base = match graph {
+        Some(g) if g.is_dir() => {
+            if g.join("entries").is_dir() || g.join("blobs").is_dir() {
+                return Err(format!(
+                    "{} is a cache folder, not a graph: pass it as --cache {}",
+                    g.display(),
+                    g.display()
+                ));
+            }
+            g.to_path_buf()
+        }
+        Some(g) => match g.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+            _ => PathBuf::from("."),
+        },
+        None => PathBuf::from("."),
     };
-    base.join(".crestflow").join("cache")
+    Ok(base.join(".crestflow").join("cache"))
 }
 
 fn cache_cmd(action: CacheAction) -> i32 {
@@ -340,7 +377,13 @@ fn cache_cmd(action: CacheAction) -> i32 {
         CacheAction::Stats(a) | CacheAction::Clear(a) => (a, None),
         CacheAction::Gc { args, keep_days } => (args, *keep_days),
     };
-    let dir = cache_dir(args.graph.as_deref(), args.cache.as_deref());
+    let dir = match cache_dir(args.graph.as_deref(), args.cache.as_deref()) {
+        Ok(d) => d,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return EXIT_INVALID;
+        }
+    };
     if !dir.exists() {
         // Nothing to show or clean: not an error.
         eprintln!("no cache at {}", dir.display());
@@ -390,9 +433,14 @@ fn cache_cmd(action: CacheAction) -> i32 {
 /// Parses `--set` arguments and loads the graph, rendering every diagnostic on failure.
 pub fn load<'r>(registry: &'r Registry, graph: &Path, sets: &[String]) -> Result<Plan<'r>, i32> {
     let cwd = std::env::current_dir().unwrap_or_else(|_| PathBuf::from("."));
+    let fail = |e: LoadError| {
+        render_load_error(&e);
+        EXIT_INVALID
+    };
+    let graph = Graph::from_file(graph).map_err(fail)?;
     let mut overrides = Vec::new();
     for s in sets {
-        match parse_set(s, &cwd) {
+        match parse_set_for(s, &cwd, &graph) {
             Ok(o) => overrides.push(o),
             Err(e) => {
                 eprintln!("error: {e}");
@@ -400,10 +448,7 @@ pub fn load<'r>(registry: &'r Registry, graph: &Path, sets: &[String]) -> Result
             }
         }
     }
-    load_file(graph, registry, &overrides).map_err(|e| {
-        render_load_error(&e);
-        EXIT_INVALID
-    })
+    crestflow_flow::load(&graph, registry, &overrides).map_err(fail)
 }
 
 /// Prints load diagnostics with miette: file:line:column, the snippet and a label.

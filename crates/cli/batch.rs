@@ -17,7 +17,9 @@ use std::time::Instant;
 
 use crestflow_flow::graph::Graph;
 use crestflow_flow::spanned::{self, SKind, SValue};
-use crestflow_flow::{exec, load, parse_set, CancelToken, Event, Registry, RunOptions, Status};
+use crestflow_flow::{
+    exec, load, parse_set, parse_set_for, CancelToken, Event, Registry, RunOptions, Status,
+};
 
 use crate::app::{render_load_error, LogFormat, EXIT_FAILED, EXIT_INVALID};
 
@@ -110,10 +112,16 @@ pub fn create_out_dir(graph: &Graph, overrides: &[(String, String)]) -> Result<(
     Ok(())
 }
 
-/// Parses `--set` arguments relative to the current folder.
-pub fn parse_sets(sets: &[String]) -> Result<Vec<(String, String)>, String> {
+/// Parses `--set` arguments relative to the current folder; with the graph, its path params
+/// are resolved there even before they exist (`parse_set_for`).
+pub fn parse_sets(sets: &[String], graph: Option<&Graph>) -> Result<Vec<(String, String)>, String> {
     let cwd = std::env::current_dir().unwrap_or_else(|_| PathBuf::from("."));
-    sets.iter().map(|s| parse_set(s, &cwd)).collect()
+    sets.iter()
+        .map(|s| match graph {
+            Some(g) => parse_set_for(s, &cwd, g),
+            None => parse_set(s, &cwd),
+        })
+        .collect()
 }
 
 /// The files a glob pattern matches, sorted; unreadable entries are errors.
@@ -194,8 +202,8 @@ pub fn run_each(
     opts: &EachOptions,
     on_event: &(dyn Fn(usize, &Event) + Sync),
 ) -> Result<Vec<FileOutcome>, EachError> {
-    let sets = parse_sets(&opts.sets).map_err(EachError::Usage)?;
     let graph = Graph::from_file(graph_path).map_err(|e| EachError::Graph(Box::new(e)))?;
+    let sets = parse_sets(&opts.sets, Some(&graph)).map_err(EachError::Usage)?;
     // Check the graph once, bound to the first file, so an invalid graph is one error.
     if let Some(first) = files.first() {
         let ov = overrides_for_file(&graph, &sets, &opts.bind, first).map_err(EachError::Usage)?;

@@ -22,7 +22,7 @@
 //! The pipelines are those of Gehre's thesis "3D Shape Analysis based on Feature Curve
 //! Networks" (§2.4–2.5 for the default one); this module only decides when to run them.
 
-use std::collections::{BTreeSet, VecDeque};
+use std::collections::{BTreeMap, BTreeSet, VecDeque};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
@@ -54,6 +54,10 @@ pub struct WatchOptions {
     pub threads: usize,
     /// Quiet time that ends a burst of file events.
     pub debounce: Duration,
+    /// How long an input file must go without events before its run starts: a scan still
+    /// being written is not read half-way (each pause in its writing used to start a run that
+    /// failed on a truncated file, or worse, read a shorter but valid OBJ).
+    pub settle: Duration,
     /// Stop after this many finished runs (cancelled ones count).
     pub max_runs: Option<usize>,
     /// Stop this long after starting.
@@ -72,6 +76,7 @@ impl Default for WatchOptions {
             cache: None,
             threads: 0,
             debounce: Duration::from_millis(50),
+            settle: Duration::from_millis(500),
             max_runs: None,
             exit_after: None,
             stop: CancelToken::new(),
@@ -216,7 +221,7 @@ impl Files {
 }
 
 /// A classified file change.
-#[derive(Debug, PartialEq, Eq, PartialOrd, Ord)]
+#[derive(Clone, Debug, PartialEq, Eq, PartialOrd, Ord)]
 enum Change {
     Graph,
     Input(PathBuf),
@@ -460,7 +465,9 @@ pub fn watch(
         path: opts.graph.clone(),
         source,
     })?;
-    let sets = parse_sets(&opts.sets).map_err(WatchError::Usage)?;
+    // The graph as it is now tells which params are paths; an invalid graph is reported below.
+    let sets = parse_sets(&opts.sets, Graph::from_file(&graph_path).ok().as_ref())
+        .map_err(WatchError::Usage)?;
     let graph_dir = graph_path
         .parent()
         .map(Path::to_path_buf)
@@ -543,8 +550,22 @@ pub fn watch(
             || opts.exit_after.is_some_and(|d| t_start.elapsed() >= d)
     };
 
+    // Input changes wait here until their file has been quiet for `opts.settle`.
+    let mut settling: BTreeMap<Change, Instant> = BTreeMap::new();
     std::thread::scope(|scope| {
         loop {
+            if !settling.is_empty() {
+                let now = Instant::now();
+                let quiet: BTreeSet<Change> = settling
+                    .iter()
+                    .filter(|(_, t)| now.duration_since(**t) >= opts.settle)
+                    .map(|(c, _)| c.clone())
+                    .collect();
+                if !quiet.is_empty() {
+                    settling.retain(|c, _| !quiet.contains(c));
+                    handle_changes(&mut st, quiet, &mut current, emit);
+                }
+            }
             if stop_now(finished) {
                 if let Some(r) = &current {
                     r.cancel.cancel();
@@ -630,7 +651,14 @@ pub fn watch(
                             }
                         }
                     }
-                    handle_changes(&mut st, changes, &mut current, emit);
+                    // The graph is saved at once (editors write it whole); files wait.
+                    let now = Instant::now();
+                    let (graph, files): (BTreeSet<Change>, BTreeSet<Change>) =
+                        changes.into_iter().partition(|c| *c == Change::Graph);
+                    for c in files {
+                        settling.insert(c, now);
+                    }
+                    handle_changes(&mut st, graph, &mut current, emit);
                     for p in sync_watches(&st, &mut watched) {
                         emit(WatchEvent::Problem { message: p });
                     }

@@ -21,7 +21,7 @@ pub use cache::{CacheStats, CacheStore, GcStats};
 pub use diag::{DiagKind, Diagnostic, LoadError};
 pub use exec::{run, why, Event, NodeOutcome, RunError, RunOptions, RunSummary, Status};
 pub use graph::Graph;
-pub use load::{load, load_file, parse_set, Plan};
+pub use load::{load, load_file, parse_set, parse_set_for, path_params, Plan};
 pub use node::{
     check_range, port_type, resolve_path, type_name_of, CancelToken, Ctx, ErrorKind, Inputs,
     NodeError, NodeKind, Outputs, Par, ParamIssue, Port, PortType, PortValue, ProgressSink,

@@ -1,7 +1,7 @@
 //! Loading: parse -> resolve -> type-check every edge -> plan (DESIGN §3). Every problem is
 //! collected and returned at once, each located in the pipeline file when there is one.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::fmt::Write as _;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
@@ -622,8 +622,67 @@ fn one_line(s: &str) -> String {
 /// it parses as a RON value (numbers stay numbers), else as a string. A string that names an
 /// existing relative path, or a relative path with a folder part whose folder exists, is made
 /// absolute against `cwd`: users type paths relative to their shell, while paths written in a
-/// graph file are relative to the file.
+/// graph file are relative to the file. When the graph is known, use [`parse_set_for`], which
+/// also resolves paths that do not exist yet.
 pub fn parse_set(arg: &str, cwd: &Path) -> Result<(String, String), String> {
+    parse_set_in(arg, cwd, &BTreeSet::new())
+}
+
+/// [`parse_set`] for `graph`: a relative string set for one of its [`path_params`] is made
+/// absolute against `cwd` whether or not it exists yet. Without that, `--set out=results`
+/// named `results` beside the graph file on the first run (the folder did not exist) and in
+/// the current folder once it did, so the second run had other keys and ran again.
+pub fn parse_set_for(arg: &str, cwd: &Path, graph: &Graph) -> Result<(String, String), String> {
+    parse_set_in(arg, cwd, &path_params(graph))
+}
+
+/// The graph params that hold paths: a string default with a folder part or a file extension
+/// (`"../data/fandisk.off"`, `"scan.ply"`), or a param that node params use as a folder
+/// (`"$out/render.png"`, `"${out}/x"`).
+pub fn path_params(graph: &Graph) -> BTreeSet<String> {
+    let mut out = BTreeSet::new();
+    for p in &graph.params {
+        let default_is_path = match spanned::parse(&p.value) {
+            Ok(SValue {
+                kind: SKind::Str(s),
+                ..
+            }) => looks_like_path(&s),
+            _ => false,
+        };
+        let used_as_folder = graph.nodes.iter().any(|n| {
+            [format!("${}/", p.name), format!("${{{}}}/", p.name)]
+                .iter()
+                .any(|pat| n.params.contains(pat.as_str()))
+        });
+        if default_is_path || used_as_folder {
+            out.insert(p.name.clone());
+        }
+    }
+    out
+}
+
+/// Whether a string reads as a path by its form alone: a folder separator, or a file
+/// extension of one to five characters that is not all digits (`mesh.off`, not `1.5`).
+fn looks_like_path(s: &str) -> bool {
+    if s.contains('/') || s.contains('\\') {
+        return true;
+    }
+    match s.rsplit_once('.') {
+        Some((stem, ext)) => {
+            !stem.is_empty()
+                && (1..=5).contains(&ext.len())
+                && ext.chars().all(|c| c.is_ascii_alphanumeric())
+                && !ext.chars().all(|c| c.is_ascii_digit())
+        }
+        None => false,
+    }
+}
+
+fn parse_set_in(
+    arg: &str,
+    cwd: &Path,
+    path_params: &BTreeSet<String>,
+) -> Result<(String, String), String> {
     let (name, value) = arg
         .split_once('=')
         .ok_or_else(|| format!("--set expects name=value, got `{arg}`"))?;
@@ -651,7 +710,8 @@ pub fn parse_set(arg: &str, cwd: &Path) -> Result<(String, String), String> {
             let p = Path::new(&s);
             let looks_like_path = !s.is_empty()
                 && p.is_relative()
-                && (cwd.join(p).exists()
+                && (path_params.contains(name)
+                    || cwd.join(p).exists()
                     || (p.parent().is_some_and(|d| !d.as_os_str().is_empty())
                         && cwd.join(p).parent().is_some_and(Path::is_dir)));
             if looks_like_path {
