@@ -241,6 +241,50 @@ fn a_corrupt_blob_is_recomputed_when_needed() {
 }
 
 #[test]
+fn a_corrupt_report_blob_is_recomputed_and_shown() {
+    // Nothing downstream reads a report, so a corrupt stored report used to stay corrupt:
+    // every later run warned that it "cannot be shown" and showed nothing.
+    let reg = toy_registry();
+    let dir = tempdir();
+    let cache = dir.path().join(".crestflow/cache");
+    let g = write(
+        dir.path(),
+        "g.ron",
+        r#"Graph(nodes: {
+    "c":   (kind: "toy.const", params: (value: 1.5)),
+    "rep": (kind: "toy.big_report", inputs: { "x": "c.value" }),
+})"#,
+    );
+    let shown = |ev: &[Event]| -> Vec<f64> {
+        ev.iter()
+            .filter_map(|e| match e {
+                Event::Report { node, values, .. } if node == "rep" => values["x_times_7"].as_f64(),
+                _ => None,
+            })
+            .collect()
+    };
+    let (s1, ev) = run_file(&g, &reg, opts());
+    assert_eq!(shown(&ev), [10.5]);
+    let d = s1.digest("rep", "report").unwrap().to_string();
+    let mut bytes = std::fs::read(blob_path(&cache, &d)).unwrap();
+    bytes[20] ^= 0x55;
+    std::fs::write(blob_path(&cache, &d), bytes).unwrap();
+    let (_, ev) = run_file(&g, &reg, opts());
+    assert_eq!(with_status(&ev, Status::Cached), names(&["c", "rep"]));
+    assert_eq!(shown(&ev), [10.5]);
+    let w = warnings(&ev);
+    assert!(
+        w.iter()
+            .any(|m| m.contains("is corrupt") && m.contains("recomputing `rep`")),
+        "{w:?}"
+    );
+    // Repaired: the next run shows it without a warning.
+    let (_, ev) = run_file(&g, &reg, opts());
+    assert_eq!(shown(&ev), [10.5]);
+    assert_eq!(warnings(&ev), Vec::<String>::new());
+}
+
+#[test]
 fn a_failing_branch_does_not_stop_the_independent_one() {
     let reg = toy_registry();
     let dir = tempdir();

@@ -323,6 +323,29 @@ impl NodeKind for MakeReport {
     }
 }
 
+/// `toy.big_report`: a Report of 40 values, too big to be kept inside its cache entry.
+pub struct BigReport;
+impl NodeKind for BigReport {
+    type Params = NoParams;
+    const KIND: &'static str = "toy.big_report";
+    const VERSION: u32 = 1;
+    const DOC: &'static str = "Reports 40 multiples of a number.";
+    fn inputs() -> Vec<Port> {
+        vec![Port::of::<f64>("x", "the number")]
+    }
+    fn outputs() -> Vec<Port> {
+        vec![Port::of::<Report>("report", "x times 0..40")]
+    }
+    fn run(_: &NoParams, i: &Inputs, _: &Ctx) -> Result<Outputs, NodeError> {
+        let x = *i.get::<f64>("x")?;
+        let mut r = Report::new();
+        for k in 0..40 {
+            r.set(format!("x_times_{k}"), x * k as f64);
+        }
+        Ok(Outputs::new().with("report", r))
+    }
+}
+
 /// `toy.pool_threads`: how many threads the pool the node runs in has (nodes must use the
 /// executor's pool, not one of their own).
 pub struct PoolThreads;
@@ -355,7 +378,8 @@ pub fn toy_registry() -> Registry {
         .add::<WriteText>()
         .add::<Fail>()
         .add::<Slow>()
-        .add::<MakeReport>();
+        .add::<MakeReport>()
+        .add::<BigReport>();
     r
 }
 

@@ -366,29 +366,38 @@ impl Shared<'_, '_> {
                     Some(&out.name),
                     format!("{why}; recomputing `{}`", out.name),
                 );
-                let values = self.recompute(i)?;
-                let mut found = None;
-                for (p, s) in &out.outputs {
-                    if let Some((v, digest)) = values.get(p) {
-                        if *digest != s.digest {
-                            self.warn(Some(&out.name), format!("recomputed output `{p}` differs from the cached digest (is the node deterministic?)"));
-                        }
-                        if let Ok(mut g) = s.value.lock() {
-                            *g = Some(v.clone());
-                        }
-                        if p == port {
-                            found = Some(v.clone());
-                        }
-                    }
-                }
-                found.ok_or_else(|| {
-                    NodeError::internal(format!(
-                        "recomputing `{}` gave no output `{port}`",
-                        out.name
-                    ))
-                })
+                self.reload(i, &out.name, &out.outputs, port)
             }
         }
+    }
+
+    /// Recomputes node `i` (named `name`) after a stored output failed to load: the fresh
+    /// values go into its `outputs` slots (and repair the store); returns output `port`.
+    fn reload(
+        &self,
+        i: usize,
+        name: &str,
+        outputs: &BTreeMap<String, Arc<Slot>>,
+        port: &str,
+    ) -> Result<Value, NodeError> {
+        let values = self.recompute(i)?;
+        let mut found = None;
+        for (p, s) in outputs {
+            if let Some((v, digest)) = values.get(p) {
+                if *digest != s.digest {
+                    self.warn(Some(name), format!("recomputed output `{p}` differs from the cached digest (is the node deterministic?)"));
+                }
+                if let Ok(mut g) = s.value.lock() {
+                    *g = Some(v.clone());
+                }
+                if p == port {
+                    found = Some(v.clone());
+                }
+            }
+        }
+        found.ok_or_else(|| {
+            NodeError::internal(format!("recomputing `{name}` gave no output `{port}`"))
+        })
     }
 
     fn gather(&self, i: usize) -> Result<Inputs, NodeError> {
@@ -814,7 +823,18 @@ impl Shared<'_, '_> {
             for p in &n.outputs {
                 if p.ty.id == TypeId::of::<Report>() {
                     if let Some(slot) = out.outputs.get(p.name) {
-                        match slot.load() {
+                        // A stored report that fails to load (a corrupt blob) is recomputed,
+                        // which also repairs the store: else it stayed unreadable in every
+                        // later run, since nothing downstream reads a report.
+                        let value = slot.load().or_else(|e| {
+                            self.warn(
+                                Some(&n.name),
+                                format!("report `{}`: {e}; recomputing `{}`", p.name, n.name),
+                            );
+                            self.reload(i, &n.name, &out.outputs, p.name)
+                                .map_err(|e| e.to_string())
+                        });
+                        match value {
                             Ok(v) => {
                                 if let Some(r) = v.downcast_ref::<Report>() {
                                     self.emit(Event::Report {
