@@ -282,6 +282,59 @@ fn set_values_of_path_params_become_absolute_before_they_exist() {
 }
 
 #[test]
+fn a_file_written_twice_or_over_an_input_is_refused() {
+    let dir = tempdir();
+    write(dir.path(), "in.txt", "abc");
+    let reg = toy_registry();
+    let errors = |text: &str| -> Vec<(String, usize)> {
+        let g = write(dir.path(), "g.ron", text);
+        match load_file(&g, &reg, &[]) {
+            Ok(_) => Vec::new(),
+            Err(e) => e
+                .of(DiagKind::FileConflict)
+                .iter()
+                .map(|d| (d.message.clone(), d.line))
+                .collect(),
+        }
+    };
+    // Two spellings of one file: a race between the two writers.
+    let twice = errors(
+        r#"Graph(nodes: {
+  "r": (kind: "toy.read_file", params: (path: "in.txt")),
+  "a": (kind: "toy.write_text", params: (path: "out/x.txt"), inputs: { "x": "r.len" }),
+  "b": (kind: "toy.write_text", params: (path: "./out/../out/x.txt"), inputs: { "x": "r.len" }),
+})"#,
+    );
+    assert_eq!(twice.len(), 1, "{twice:?}");
+    assert!(
+        twice[0].0.contains("nodes `a` and `b` both write"),
+        "{twice:?}"
+    );
+    assert_eq!(twice[0].1, 4);
+    // Writing the file the graph reads.
+    let over = errors(
+        r#"Graph(nodes: {
+  "r": (kind: "toy.read_file", params: (path: "in.txt")),
+  "w": (kind: "toy.write_text", params: (path: "sub/../in.txt"), inputs: { "x": "r.len" }),
+})"#,
+    );
+    assert_eq!(over.len(), 1, "{over:?}");
+    assert!(
+        over[0].0.contains("node `w` would write") && over[0].0.contains("which node `r` reads"),
+        "{over:?}"
+    );
+    // Different files are fine.
+    let fine = errors(
+        r#"Graph(nodes: {
+  "r": (kind: "toy.read_file", params: (path: "in.txt")),
+  "a": (kind: "toy.write_text", params: (path: "out/x.txt"), inputs: { "x": "r.len" }),
+  "b": (kind: "toy.write_text", params: (path: "out/y.txt"), inputs: { "x": "r.len" }),
+})"#,
+    );
+    assert_eq!(fine, Vec::new());
+}
+
+#[test]
 fn graphs_built_in_code_are_checked_too() {
     let reg = toy_registry();
     let mut g = Graph::new(".");

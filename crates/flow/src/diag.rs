@@ -38,6 +38,8 @@ pub enum DiagKind {
     Cycle,
     /// The file cannot be read.
     Io,
+    /// Two nodes write the same file, or a node writes a file the graph reads.
+    FileConflict,
 }
 
 /// One problem, located in the pipeline file when it came from one.

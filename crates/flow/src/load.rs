@@ -271,6 +271,8 @@ pub fn load<'r>(
         }
     }
 
+    file_conflicts(graph, &resolved, &mut diags);
+
     if !diags.is_empty() {
         return Err(graph.error(diags));
     }
@@ -310,6 +312,93 @@ pub fn load<'r>(
         base_dir: graph.base_dir.clone(),
         file: graph.file.clone(),
     })
+}
+
+/// Two nodes that write one file race (which one is left depends on the thread timing), and a
+/// node that writes a file the graph reads destroys its own input (`--set out=.` beside the
+/// mesh, with a save node's `$out/mesh.ply` the mesh itself): both are load errors, located
+/// at the second node.
+fn file_conflicts(graph: &Graph, resolved: &[Option<Resolved<'_>>], diags: &mut Vec<Diagnostic>) {
+    let key = |f: &Path| same_file_key(&crate::node::resolve_path(&graph.base_dir, f));
+    let mut writers: BTreeMap<PathBuf, usize> = BTreeMap::new();
+    let mut readers: BTreeMap<PathBuf, usize> = BTreeMap::new();
+    for (i, r) in resolved.iter().enumerate() {
+        if let Some((_, Some(p), _)) = r {
+            for f in &p.input_files {
+                readers.entry(key(f)).or_insert(i);
+            }
+        }
+    }
+    for (i, r) in resolved.iter().enumerate() {
+        let Some((_, Some(p), _)) = r else { continue };
+        let n = &graph.nodes[i];
+        for f in &p.output_files {
+            let k = key(f);
+            if let Some(&w) = writers.get(&k) {
+                if w != i {
+                    diags.push(
+                        Diagnostic::new(
+                            DiagKind::FileConflict,
+                            format!(
+                                "nodes `{}` and `{}` both write {}",
+                                graph.nodes[w].name,
+                                n.name,
+                                k.display()
+                            ),
+                        )
+                        .at(n.name_span.clone(), "writes the same file")
+                        .help(Some("give one of them another path".into())),
+                    );
+                }
+                continue;
+            }
+            writers.insert(k.clone(), i);
+            if let Some(&r) = readers.get(&k) {
+                diags.push(
+                    Diagnostic::new(
+                        DiagKind::FileConflict,
+                        format!(
+                            "node `{}` would write {}, which node `{}` reads",
+                            n.name,
+                            k.display(),
+                            graph.nodes[r].name
+                        ),
+                    )
+                    .at(n.name_span.clone(), "overwrites an input")
+                    .help(Some(
+                        "write the outputs to another folder (`--set out=…`)".into(),
+                    )),
+                );
+            }
+        }
+    }
+}
+
+/// A path for comparing files: the canonical path when the file exists, else the path with
+/// `.` and `..` folded (an output may not exist yet).
+fn same_file_key(p: &Path) -> PathBuf {
+    if let Ok(c) = std::fs::canonicalize(p) {
+        return c;
+    }
+    let mut out = PathBuf::new();
+    for c in p.components() {
+        match c {
+            std::path::Component::CurDir => {}
+            std::path::Component::ParentDir => {
+                if !out.pop() {
+                    out.push("..");
+                }
+            }
+            other => out.push(other),
+        }
+    }
+    // The folder may exist when the file does not: canonical folder, then the name.
+    match (out.parent(), out.file_name()) {
+        (Some(d), Some(name)) => std::fs::canonicalize(d)
+            .map(|d| d.join(name))
+            .unwrap_or(out),
+        _ => out,
+    }
 }
 
 /// A node's kind, its params when they prepared cleanly, and the substituted params text.
