@@ -51,3 +51,69 @@ fn every_shipped_graph_validates() {
         assert!(stdout.contains("ok ("), "{}: {stdout}", g.display());
     }
 }
+
+#[test]
+fn every_shipped_mesh_graph_repairs_a_non_manifold_mesh_on_request() {
+    // The error for a non-manifold mesh says `--set repair=true`: every shipped graph that
+    // loads a mesh must take that param. A multi-part assembly with 242 non-manifold edges
+    // (SOURCES.md names it a bad-input case) fails without it and runs with it.
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut graphs: Vec<_> = std::fs::read_dir(root.join("graphs"))
+        .expect("graphs/ exists")
+        .map(|e| e.expect("readable entry").path())
+        .filter(|p| {
+            let text = std::fs::read_to_string(p).unwrap_or_default();
+            p.extension().is_some_and(|e| e == "ron") && text.contains("io.load_mesh")
+        })
+        .collect();
+    graphs.sort();
+    assert!(graphs.len() >= 9, "{graphs:?}");
+    for g in &graphs {
+        let out = run(
+            &["validate", g.to_str().unwrap(), "--set", "repair=true"],
+            root,
+        );
+        assert_eq!(
+            out.status.code(),
+            Some(0),
+            "{}: {}",
+            g.display(),
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+    let dir = common::tempdir();
+    let mesh = common::cli::mesh("cad/trimesh_cycloidal.ply");
+    let graph = root.join("graphs/feature-curves.ron");
+    let args = |repair: &'static str| {
+        vec![
+            "run".to_string(),
+            graph.to_string_lossy().into_owned(),
+            "--no-cache".into(),
+            "--set".into(),
+            format!("mesh={}", mesh.display()),
+            "--set".into(),
+            format!("out={}", dir.path().display()),
+            "--set".into(),
+            format!("repair={repair}"),
+        ]
+    };
+    let run_with = |repair| {
+        let a = args(repair);
+        run(&a.iter().map(String::as_str).collect::<Vec<_>>(), root)
+    };
+    let out = run_with("false");
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("242 non-manifold edges") && err.contains("--set repair=true"),
+        "{err}"
+    );
+    let out = run_with("true");
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(dir.path().join("curves.ply").is_file());
+}

@@ -233,7 +233,7 @@ fn load_node_repair_orients_the_faces() {
         sink.0.lock().unwrap().clone(),
         [
             "n: t.off: 3 edges with inconsistently oriented faces (load with `repair: true` to \
-          orient them coherently)"
+          orient them coherently; in the shipped graphs: `--set repair=true`)"
         ]
     );
     let out = run(

@@ -146,7 +146,7 @@ impl LoadReport {
                 0
             },
             "edges with inconsistently oriented faces (load with `repair: true` to orient \
-             them coherently)",
+             them coherently; in the shipped graphs: `--set repair=true`)",
         );
         say(
             self.faces_flipped,
@@ -235,7 +235,8 @@ pub enum MeshError {
     },
     #[error(
         "{}: {edges} non-manifold edges (more than two faces) and {vertices} non-manifold \
-         vertices (faces forming several fans); load with `repair: true` to split them",
+         vertices (faces forming several fans); load with `repair: true` to split them (in the \
+         shipped graphs: `--set repair=true`)",
         path.display()
     )]
     NonManifold {
