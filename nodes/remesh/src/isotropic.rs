@@ -264,19 +264,38 @@ pub enum RemeshError {
     #[error("feature curves: {0}")]
     Features(#[from] FeatureError),
     #[error(
-        "target edge length {target} is below 1/20 of the mesh's mean edge length {mean}: \
-         raise `target`"
+        "target edge length {} is below 1/20 of the mesh's mean edge length {}: \
+         raise `target`",
+        short(*target),
+        short(*mean)
     )]
     TargetTooSmall { target: f64, mean: f64 },
     #[error(
-        "target edge length {target} would give about {estimate} vertices, more than \
-         max_vertices = {max}"
+        "target edge length {} would give about {estimate} vertices, more than \
+         max_vertices = {max}",
+        short(*target)
     )]
     TooManyVertices {
         target: f64,
         estimate: usize,
         max: usize,
     },
+}
+
+/// A length for a message: six significant digits, in exponent form when very small or large
+/// (a target of 1e-300 used to print three hundred zeros).
+fn short(x: f64) -> String {
+    if x != 0.0 && !(1e-4..1e6).contains(&x.abs()) {
+        format!("{x:.5e}")
+    } else {
+        let digits = (5 - x.abs().log10().floor().max(-10.0) as i32).clamp(0, 15) as usize;
+        let s = format!("{x:.digits$}");
+        if s.contains('.') {
+            s.trim_end_matches('0').trim_end_matches('.').to_string()
+        } else {
+            s
+        }
+    }
 }
 
 /// The remeshed surface and what happened.

@@ -523,6 +523,19 @@ fn bad_input_gives_clear_errors() {
     let mean = sphere.mean_edge_length();
     let e = isotropic(&sphere, None, &abs(mean / 25.0), Par::Seq).unwrap_err();
     assert!(matches!(e, RemeshError::TargetTooSmall { .. }), "{e}");
+    // Lengths in messages are short: six significant digits, exponents when tiny.
+    let e = isotropic(&sphere, None, &abs(1e-300), Par::Seq).unwrap_err();
+    let text = e.to_string();
+    assert!(
+        text.starts_with("target edge length 1.00000e-300 is below") && text.len() < 140,
+        "{text}"
+    );
+    let e = isotropic(&sphere, None, &abs(0.001), Par::Seq).unwrap_err();
+    assert!(
+        e.to_string()
+            .starts_with("target edge length 0.001 is below"),
+        "{e}"
+    );
 
     let mut nan = sphere.clone();
     nan.positions[7][1] = f64::NAN;
