@@ -4,22 +4,29 @@
 
 mod common;
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use common::cli::run;
+
+/// The `.ron` files in `graphs/` that `keep` accepts, sorted.
+fn shipped(keep: impl Fn(&Path) -> bool) -> Vec<PathBuf> {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut graphs: Vec<PathBuf> = std::fs::read_dir(root.join("graphs"))
+        .expect("graphs/ exists")
+        .map(|e| e.expect("readable entry").path())
+        .filter(|p| p.extension().is_some_and(|e| e == "ron") && keep(p))
+        .collect();
+    graphs.sort();
+    graphs
+}
 
 #[test]
 fn every_shipped_graph_validates() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let mut graphs: Vec<_> = std::fs::read_dir(root.join("graphs"))
-        .expect("graphs/ exists")
-        .map(|e| e.expect("readable entry").path())
-        .filter(|p| {
-            let name = p.file_name().and_then(|n| n.to_str()).unwrap_or("");
-            name.ends_with(".ron") && !name.ends_with(".experiment.ron")
-        })
-        .collect();
-    graphs.sort();
+    let graphs = shipped(|p| {
+        let name = p.file_name().and_then(|n| n.to_str()).unwrap_or("");
+        !name.ends_with(".experiment.ron")
+    });
     let names: Vec<String> = graphs
         .iter()
         .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
@@ -58,15 +65,11 @@ fn every_shipped_mesh_graph_repairs_a_non_manifold_mesh_on_request() {
     // loads a mesh must take that param. A multi-part assembly with 242 non-manifold edges
     // (SOURCES.md names it a bad-input case) fails without it and runs with it.
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let mut graphs: Vec<_> = std::fs::read_dir(root.join("graphs"))
-        .expect("graphs/ exists")
-        .map(|e| e.expect("readable entry").path())
-        .filter(|p| {
-            let text = std::fs::read_to_string(p).unwrap_or_default();
-            p.extension().is_some_and(|e| e == "ron") && text.contains("io.load_mesh")
-        })
-        .collect();
-    graphs.sort();
+    let graphs = shipped(|p| {
+        std::fs::read_to_string(p)
+            .unwrap_or_default()
+            .contains("io.load_mesh")
+    });
     assert!(graphs.len() >= 9, "{graphs:?}");
     for g in &graphs {
         let out = run(
