@@ -158,18 +158,7 @@ fn unix_ms() -> u128 {
 
 /// The absolute, normalised form of a path (canonical when it exists).
 fn norm(p: &Path) -> PathBuf {
-    if let Ok(c) = std::fs::canonicalize(p) {
-        return c;
-    }
-    // A missing file: canonicalise its folder.
-    match (p.parent(), p.file_name()) {
-        (Some(d), Some(n)) if !d.as_os_str().is_empty() => std::fs::canonicalize(d)
-            .map(|d| d.join(n))
-            .unwrap_or_else(|_| p.to_path_buf()),
-        _ => std::env::current_dir()
-            .map(|d| d.join(p))
-            .unwrap_or_else(|_| p.to_path_buf()),
-    }
+    crestflow_flow::file_identity(p)
 }
 
 /// Editor swap, backup and lock files, and other temporaries: never an edit by themselves.

@@ -23,8 +23,8 @@ pub use exec::{run, why, Event, NodeOutcome, RunError, RunOptions, RunSummary, S
 pub use graph::Graph;
 pub use load::{load, load_file, parse_set, parse_set_for, path_params, Plan};
 pub use node::{
-    check_range, port_type, resolve_path, type_name_of, CancelToken, Ctx, ErrorKind, Inputs,
-    NodeError, NodeKind, Outputs, Par, ParamIssue, Port, PortType, PortValue, ProgressSink,
+    check_range, file_identity, port_type, resolve_path, type_name_of, CancelToken, Ctx, ErrorKind,
+    Inputs, NodeError, NodeKind, Outputs, Par, ParamIssue, Port, PortType, PortValue, ProgressSink,
     Validate, Value,
 };
 pub use registry::{DynNode, ParamError, PreparedParams, Registry};

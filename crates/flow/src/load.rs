@@ -319,7 +319,7 @@ pub fn load<'r>(
 /// mesh, with a save node's `$out/mesh.ply` the mesh itself): both are load errors, located
 /// at the second node.
 fn file_conflicts(graph: &Graph, resolved: &[Option<Resolved<'_>>], diags: &mut Vec<Diagnostic>) {
-    let key = |f: &Path| same_file_key(&crate::node::resolve_path(&graph.base_dir, f));
+    let key = |f: &Path| crate::node::file_identity(&crate::node::resolve_path(&graph.base_dir, f));
     let mut writers: BTreeMap<PathBuf, usize> = BTreeMap::new();
     let mut readers: BTreeMap<PathBuf, usize> = BTreeMap::new();
     for (i, r) in resolved.iter().enumerate() {
@@ -371,33 +371,6 @@ fn file_conflicts(graph: &Graph, resolved: &[Option<Resolved<'_>>], diags: &mut 
                 );
             }
         }
-    }
-}
-
-/// A path for comparing files: the canonical path when the file exists, else the path with
-/// `.` and `..` folded (an output may not exist yet).
-fn same_file_key(p: &Path) -> PathBuf {
-    if let Ok(c) = std::fs::canonicalize(p) {
-        return c;
-    }
-    let mut out = PathBuf::new();
-    for c in p.components() {
-        match c {
-            std::path::Component::CurDir => {}
-            std::path::Component::ParentDir => {
-                if !out.pop() {
-                    out.push("..");
-                }
-            }
-            other => out.push(other),
-        }
-    }
-    // The folder may exist when the file does not: canonical folder, then the name.
-    match (out.parent(), out.file_name()) {
-        (Some(d), Some(name)) => std::fs::canonicalize(d)
-            .map(|d| d.join(name))
-            .unwrap_or(out),
-        _ => out,
     }
 }
 

@@ -377,6 +377,41 @@ impl Ctx<'_> {
     }
 }
 
+/// One name per file, for telling whether two paths are the same file: the canonical path
+/// when the file exists; else the absolute path with `.` and `..` folded, inside its folder's
+/// canonical path when the folder exists (an output may not exist yet). Relative paths are
+/// taken from the current folder.
+pub fn file_identity(path: &Path) -> PathBuf {
+    if let Ok(c) = std::fs::canonicalize(path) {
+        return c;
+    }
+    let abs = if path.is_absolute() {
+        path.to_path_buf()
+    } else {
+        std::env::current_dir()
+            .map(|d| d.join(path))
+            .unwrap_or_else(|_| path.to_path_buf())
+    };
+    let mut folded = PathBuf::new();
+    for c in abs.components() {
+        match c {
+            std::path::Component::CurDir => {}
+            std::path::Component::ParentDir => {
+                if !folded.pop() {
+                    folded.push("..");
+                }
+            }
+            other => folded.push(other),
+        }
+    }
+    match (folded.parent(), folded.file_name()) {
+        (Some(d), Some(name)) => std::fs::canonicalize(d)
+            .map(|d| d.join(name))
+            .unwrap_or(folded),
+        _ => folded,
+    }
+}
+
 /// `path` if absolute, else `base_dir/path`.
 pub fn resolve_path(base_dir: &Path, path: &Path) -> PathBuf {
     if path.is_absolute() {
