@@ -262,7 +262,9 @@ pub enum HeatError {
     },
     #[error("vertex {vertex} of curve {curve} is not tied to the mesh (a free point or a face index out of range)")]
     FreeCurveVertex { curve: usize, vertex: u32 },
-    #[error("vertex {vertex} of curve {curve} refers to mesh vertex {mesh_vertex} but the mesh has {n_vertices} vertices")]
+    // A network names mesh vertices by index: it only carries over to meshes of one
+    // connectivity (poses of one template), the usual cause of this error.
+    #[error("vertex {vertex} of curve {curve} refers to mesh vertex {mesh_vertex} but the mesh has {n_vertices} vertices (was the network traced on another mesh? it carries over only to meshes with the same vertices and faces)")]
     CurveOffMesh {
         curve: usize,
         vertex: u32,

@@ -231,8 +231,9 @@ fn bad_inputs_are_typed_errors() {
         b: n as u32,
         t: 0.5,
     };
+    let err = heat_distance(&mesh, Some(&off), &HeatParams::default(), Par::Seq).unwrap_err();
     assert_eq!(
-        heat_distance(&mesh, Some(&off), &HeatParams::default(), Par::Seq).unwrap_err(),
+        err,
         HeatError::CurveOffMesh {
             curve: 0,
             vertex: 0,
@@ -240,6 +241,8 @@ fn bad_inputs_are_typed_errors() {
             n_vertices: n
         }
     );
+    // The message points at the usual cause: a network traced on another mesh.
+    assert!(err.to_string().contains("traced on another mesh"), "{err}");
     off.vertices[0].location = SurfacePoint::Free;
     assert_eq!(
         heat_distance(&mesh, Some(&off), &HeatParams::default(), Par::Seq).unwrap_err(),
