@@ -15,6 +15,8 @@
 # The Rust bench (release) remeshes and writes its outputs; bench/remesh/peer.py runs the peers
 # and grades every output with the same code (min angle, valence-6 share, pymeshlab Hausdorff,
 # sharp edges kept). Prints the JSON lines, then a table with the time ratios.
+# PEERS (default pymeshlab,gpytoolbox,cgal) picks the peers; PEERS="" grades ours only.
+# bench/remesh/orientations.sh runs all this on six axis orders of each mesh.
 set -euo pipefail
 
 PYTHON=${PYTHON:-python3}
@@ -57,9 +59,11 @@ if [ "${LLOYD:-1}" != "0" ]; then
     fi
 fi
 : > "$OUT/results.jsonl"
+# PEERS="" grades our outputs only.
+PEERS=${PEERS-pymeshlab,gpytoolbox,cgal}
 for m in "${ABS[@]}"; do
     "$PYTHON" bench/remesh/peer.py "$m" --targets "$TARGETS" --ours "$OUT/ours.jsonl" \
-        | tee -a "$OUT/results.jsonl"
+        --methods "$PEERS" | tee -a "$OUT/results.jsonl"
 done
 
 "$PYTHON" - "$OUT/results.jsonl" <<'PY'
