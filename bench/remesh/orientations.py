@@ -14,13 +14,15 @@ to the order the work happened to take.
 
 `summary` reads the JSON lines of `bench/remesh/peer.py` run on those copies and prints, per
 mesh, target and method, the smallest, median and largest of the min angle, the valence-6
-share and the Hausdorff distance over the orientations, and in how many of them each goal of
-the benchmark (min angle ≥ 30°, valence 6 ≥ 80 %) holds. `bench/remesh/orientations.sh` runs
+share, the Hausdorff distance, the time and its ratio to the fastest peer over the
+orientations, and in how many of them each goal of the benchmark holds (min angle ≥ 30°,
+valence 6 ≥ 80 %, Hausdorff distance at most the best peer's in the same orientation). `bench/remesh/orientations.sh` runs
 both steps around the benches.
 """
 import argparse
 import itertools
 import json
+import math
 import os
 import statistics
 import sys
@@ -71,16 +73,30 @@ def summary(results):
         vals = sorted(vals)
         return "%s / %s / %s" % (fmt % vals[0], fmt % statistics.median(vals), fmt % vals[-1])
 
+    # Per orientation: the fastest peer's time and the best peer's Hausdorff distance.
+    fastest, best = {}, {}
+    for r in rows:
+        if "time_s" in r and not r["method"].startswith("crestflow"):
+            key = (r["mesh"], r["target_pct"])
+            fastest[key] = min(fastest.get(key, math.inf), r["time_s"])
+            best[key] = min(best.get(key, math.inf), r["hausdorff_rel"])
+
     print("| mesh | target | method | orientations | min angle ° (min / median / max) | "
-          "≥ 30° | valence 6 | ≥ 80 % | Hausdorff (diag) |")
-    print("|---|---|---|---|---|---|---|---|---|")
+          "≥ 30° | valence 6 | ≥ 80 % | Hausdorff (diag) | ≤ best peer's | time s | "
+          "fastest peer / this |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for (mesh, pct, method), g in sorted(groups.items()):
         angles = [r["min_angle_deg"] for r in g]
         val = [r["valence6_share"] or 0.0 for r in g]
         haus = [r["hausdorff_rel"] for r in g]
-        print("| %s | %g %% | %s | %d | %s | %d | %s | %d | %s |" % (
+        at_best = sum(r["hausdorff_rel"] <= best.get((r["mesh"], pct), math.inf) for r in g)
+        times = [r["time_s"] for r in g]
+        ratios = [fastest[(r["mesh"], pct)] / r["time_s"] for r in g
+                  if (r["mesh"], pct) in fastest and r["time_s"] > 0]
+        print("| %s | %g %% | %s | %d | %s | %d | %s | %d | %s | %d | %s | %s |" % (
             mesh, pct, method, len(g), spread(angles, "%.2f"), sum(a >= 30.0 for a in angles),
-            spread(val, "%.3f"), sum(v >= 0.8 for v in val), spread(haus, "%.5f")))
+            spread(val, "%.3f"), sum(v >= 0.8 for v in val), spread(haus, "%.5f"), at_best,
+            spread(times, "%.3f"), spread(ratios, "%.1f×") if ratios else "–"))
 
 
 def main():
