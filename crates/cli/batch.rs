@@ -71,13 +71,7 @@ pub fn overrides_for_file(
             }
         ));
     }
-    let abs = if file.is_absolute() {
-        file.to_path_buf()
-    } else {
-        std::env::current_dir()
-            .map(|d| d.join(file))
-            .unwrap_or_else(|_| file.to_path_buf())
-    };
+    let abs = std::path::absolute(file).unwrap_or_else(|_| file.to_path_buf());
     let mut out: Vec<(String, String)> = sets.iter().filter(|(n, _)| n != bind).cloned().collect();
     out.push((bind.to_string(), spanned::quote(&abs.to_string_lossy())));
     if bind != "out" {

@@ -385,13 +385,7 @@ pub fn file_identity(path: &Path) -> PathBuf {
     if let Ok(c) = std::fs::canonicalize(path) {
         return c;
     }
-    let abs = if path.is_absolute() {
-        path.to_path_buf()
-    } else {
-        std::env::current_dir()
-            .map(|d| d.join(path))
-            .unwrap_or_else(|_| path.to_path_buf())
-    };
+    let abs = std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
     let mut folded = PathBuf::new();
     for c in abs.components() {
         match c {
