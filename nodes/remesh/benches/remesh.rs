@@ -2,7 +2,7 @@
 //!
 //!   cargo bench -p crestflow-nodes-remesh --bench remesh -- OUT_DIR MESH... [--targets 1,2]
 //!       [--feature-tolerance 0.002] [--iterations 10] [--smoothing-steps 5]
-//!       [--feature-grading 0] [--conforming [--sharp-angle 30]] [--lloyd]
+//!       [--feature-grading 0] [--conforming [--sharp-angle 30]] [--lloyd] [--repeats 3]
 //!
 //! With `--conforming` (method `crestflow_conforming`) the features are not every sharp edge
 //! but the scale-conforming subset of them: `remesh.sharp_edges` pruned at the target,
@@ -12,7 +12,8 @@
 //! method's name then ends in `_A`). With `--lloyd`
 //! the remeshing runs with `relaxation: Lloyd` and the method's name ends in `_lloyd`.
 //!
-//! For each mesh and target (percent of the bounding-box diagonal): the median of 3 runs of
+//! For each mesh and target (percent of the bounding-box diagonal): the median of 3 runs
+//! (`--repeats N`: N runs, e.g. for a profiler) of
 //! `remesh.isotropic` (default parameters: 10 rounds, sharp edges > 30° kept) at 1 thread
 //! (`Par::Seq`) and on the rayon pool, the remeshed mesh written to OUT_DIR as OBJ, and one
 //! JSON line with the timings and the node's report.
@@ -31,49 +32,32 @@ fn median(mut v: Vec<f64>) -> f64 {
     v[v.len() / 2]
 }
 
+/// Removes `flag` and the value after it from `args`; the value, when it parses.
+fn take_value<T: std::str::FromStr>(args: &mut Vec<String>, flag: &str) -> Option<T> {
+    let i = args.iter().position(|a| a == flag)?;
+    let value = args.get(i + 1).and_then(|t| t.parse().ok());
+    args.drain(i..(i + 2).min(args.len()));
+    value
+}
+
 fn main() {
     let mut args: Vec<String> = std::env::args()
         .skip(1)
         .filter(|a| a != "--bench")
         .collect();
     let mut targets = vec![1.0, 2.0];
-    let mut feature_tolerance = IsotropicParams::default().feature_tolerance;
-    if let Some(i) = args.iter().position(|a| a == "--feature-tolerance") {
-        if let Some(t) = args.get(i + 1).and_then(|t| t.parse().ok()) {
-            feature_tolerance = t;
-        }
-        args.drain(i..(i + 2).min(args.len()));
-    }
-    let mut iterations = IsotropicParams::default().iterations;
-    if let Some(i) = args.iter().position(|a| a == "--iterations") {
-        if let Some(t) = args.get(i + 1).and_then(|t| t.parse().ok()) {
-            iterations = t;
-        }
-        args.drain(i..(i + 2).min(args.len()));
-    }
-    let mut feature_grading = IsotropicParams::default().feature_grading;
-    if let Some(i) = args.iter().position(|a| a == "--feature-grading") {
-        if let Some(t) = args.get(i + 1).and_then(|t| t.parse().ok()) {
-            feature_grading = t;
-        }
-        args.drain(i..(i + 2).min(args.len()));
-    }
-    let mut sharp_angle = None;
-    if let Some(i) = args.iter().position(|a| a == "--sharp-angle") {
-        sharp_angle = args.get(i + 1).and_then(|t| t.parse::<f64>().ok());
-        args.drain(i..(i + 2).min(args.len()));
-    }
-    let mut smoothing_steps = IsotropicParams::default().smoothing_steps;
+    let d = IsotropicParams::default();
+    let feature_tolerance =
+        take_value(&mut args, "--feature-tolerance").unwrap_or(d.feature_tolerance);
+    let iterations = take_value(&mut args, "--iterations").unwrap_or(d.iterations);
+    let feature_grading = take_value(&mut args, "--feature-grading").unwrap_or(d.feature_grading);
+    let sharp_angle: Option<f64> = take_value(&mut args, "--sharp-angle");
+    let smoothing_steps = take_value(&mut args, "--smoothing-steps").unwrap_or(d.smoothing_steps);
+    let repeats = take_value(&mut args, "--repeats").unwrap_or(3usize).max(1);
     let conforming = args.iter().any(|a| a == "--conforming");
     args.retain(|a| a != "--conforming");
     let lloyd = args.iter().any(|a| a == "--lloyd");
     args.retain(|a| a != "--lloyd");
-    if let Some(i) = args.iter().position(|a| a == "--smoothing-steps") {
-        if let Some(t) = args.get(i + 1).and_then(|t| t.parse().ok()) {
-            smoothing_steps = t;
-        }
-        args.drain(i..(i + 2).min(args.len()));
-    }
     if let Some(i) = args.iter().position(|a| a == "--targets") {
         if i + 1 < args.len() {
             targets = args[i + 1]
@@ -132,7 +116,7 @@ fn main() {
             let mut out = None;
             for par in [Par::Seq, Par::Rayon] {
                 let mut runs = Vec::new();
-                for _ in 0..3 {
+                for _ in 0..repeats {
                     let t = Instant::now();
                     let r = if conforming {
                         sharp_edges(&mesh, &sharp_params)
