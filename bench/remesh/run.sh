@@ -59,7 +59,6 @@ if [ "${LLOYD:-1}" != "0" ]; then
     fi
 fi
 : > "$OUT/results.jsonl"
-# PEERS="" grades our outputs only.
 PEERS=${PEERS-pymeshlab,gpytoolbox,cgal}
 for m in "${ABS[@]}"; do
     "$PYTHON" bench/remesh/peer.py "$m" --targets "$TARGETS" --ours "$OUT/ours.jsonl" \

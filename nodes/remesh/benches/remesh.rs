@@ -58,14 +58,8 @@ fn main() {
     args.retain(|a| a != "--conforming");
     let lloyd = args.iter().any(|a| a == "--lloyd");
     args.retain(|a| a != "--lloyd");
-    if let Some(i) = args.iter().position(|a| a == "--targets") {
-        if i + 1 < args.len() {
-            targets = args[i + 1]
-                .split(',')
-                .filter_map(|t| t.parse().ok())
-                .collect();
-            args.drain(i..i + 2);
-        }
+    if let Some(list) = take_value::<String>(&mut args, "--targets") {
+        targets = list.split(',').filter_map(|t| t.parse().ok()).collect();
     }
     if args.len() < 2 {
         eprintln!("usage: remesh OUT_DIR MESH... [--targets 1,2]");
