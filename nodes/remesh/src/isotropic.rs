@@ -71,7 +71,10 @@
 //! distance of the point pulled in. Where no vertex may move, an edge of that triangle is
 //! split with the new vertex on the input point, under the same tests; a new triangle below
 //! 30° may be flipped with its neighbour across the side opposite the new vertex (the only
-//! way between two rows of fixed vertices).
+//! way between two rows of fixed vertices). Where neither is allowed, a free corner moves
+//! three quarters, half or a quarter of the way (projected onto the input) when that brings
+//! the input vertex within 0.3 L, keeps its triangles at 30° or more, and leaves every point
+//! around them within 0.3 L of the input or as near as before.
 //!
 //! With `feature_grading` > 0 the target is local: L, except near stretches of feature chain
 //! whose bends only allow shorter edges (their [`Chain::edge_capacity`] under the tolerance),
@@ -358,6 +361,8 @@ struct State<'a> {
     corners_merged: usize,
     /// Collapses made for the valences after the rounds ([`State::collapse_for_valence`]).
     valence_collapses: usize,
+    /// Far points reached by moving a vertex part of the way ([`State::pull_partway`]).
+    far_pulls_partway: usize,
     flips: usize,
     /// Set for the flips after which no split runs (the last round and after it): see
     /// [`State::long_flip_leaves_surface`].
@@ -547,6 +552,7 @@ fn isotropic_with(
         collapses: 0,
         corners_merged: 0,
         valence_collapses: 0,
+        far_pulls_partway: 0,
         flips: 0,
         numbered_vertices: mesh.n_vertices(),
         origin: (0..mesh.n_vertices() as u32).collect(),
@@ -660,6 +666,7 @@ fn isotropic_with(
         .set("collapses", st.collapses)
         .set("corners_merged", st.corners_merged)
         .set("valence_collapses", st.valence_collapses)
+        .set("far_pulls_partway", st.far_pulls_partway)
         .set("flips", st.flips)
         .set("projections", st.projections)
         .set("projection_fallbacks", st.fallbacks);
@@ -1315,7 +1322,8 @@ impl State<'_> {
     ///
     /// The second condition makes the far points a shrinking set: after the first pass (up
     /// to three; a moved vertex and its neighbours wait for the next) only the far points
-    /// left are looked at again, against the triangles that moved.
+    /// left are looked at again, against the triangles that moved. A last pass pulls a
+    /// vertex part of the way toward the far points still left ([`State::pull_partway`]).
     fn pull_to_far_points(&mut self, input: &TriMesh, par: Par) {
         let n_in = input.n_vertices();
         let topo = input.topology();
@@ -1398,7 +1406,12 @@ impl State<'_> {
         let mut stamp = vec![0u32; n_in];
         let mut generation = 0u32;
         let mut far_face = vec![NONE; n_in];
-        for _ in 0..3 {
+        // Up to three passes of full pulls (moves, flips, splits), then one in which far
+        // points left may pull a vertex part of the way: a partial pull earlier would move
+        // vertices that a later full pull of a farther point needs.
+        let mut pass = 0;
+        while pass < 4 {
+            let partway_only = pass == 3;
             far.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
             for &(_, i, f) in &far {
                 far_face[i as usize] = f;
@@ -1443,6 +1456,16 @@ impl State<'_> {
                     stamp: &mut stamp,
                     generation: &mut generation,
                 };
+                if partway_only {
+                    if let Some(v) = self.pull_partway(&order, &blocked, &mut pull) {
+                        blocked[v as usize] = true;
+                        let ring: Vec<u32> = self.neighbor_iter(v).collect();
+                        for u in ring {
+                            blocked[u as usize] = true;
+                        }
+                    }
+                    continue;
+                }
                 if let Some([c, d]) = self.flip_toward(f, &blocked, &mut pull) {
                     for v in [c, d] {
                         blocked[v as usize] = true;
@@ -1454,7 +1477,7 @@ impl State<'_> {
                     moved.extend([c, d]);
                     continue;
                 }
-                for v in order {
+                for &v in &order {
                     if !self.movable(v) {
                         continue;
                     }
@@ -1503,8 +1526,13 @@ impl State<'_> {
                     }
                 }
             }
-            if moved.is_empty() {
+            if partway_only || far.is_empty() {
                 break;
+            }
+            if moved.is_empty() {
+                // Nothing changed: the next full pass would do the same.
+                pass = 3;
+                continue;
             }
             // Only the moved triangles changed: each far point keeps its face (at its new
             // distance) unless one of them is closer now. (Where its own face moved away, a
@@ -1532,7 +1560,73 @@ impl State<'_> {
                 far_face[i as usize] = NONE;
             }
             far.retain(|h| h.0 > limit2);
+            pass += 1;
         }
+    }
+
+    /// Where no full pull reached the far point, a free vertex of `order` (its face's corners,
+    /// nearest first, then their neighbours) moves three quarters, half or a quarter of the
+    /// way toward it, projected onto the input, when that brings the point within
+    /// [`FAR_POINT`]·L, its triangles keep an angle of at least 30° and no smaller than
+    /// before, and nothing near ends up farther than the limit unless it was before (no
+    /// [`FAR_TRADE`] as for a full pull). Returns the vertex moved.
+    fn pull_partway(
+        &mut self,
+        order: &[u32],
+        blocked: &[bool],
+        pull: &mut FarPull<'_>,
+    ) -> Option<u32> {
+        let p = pull.p;
+        for &v in order {
+            if !self.movable(v) || blocked[v as usize] {
+                continue;
+            }
+            let q = self.he.position(v);
+            let old = self.fan_min_angle_cos(v, NONE);
+            for t in [0.75, 0.5, 0.25] {
+                let r = self
+                    .proj
+                    .project(vec3::lerp(q, p, t), self.hint[v as usize], self.l);
+                let x = r.hit.point;
+                let mut new = -1.0;
+                if !(self.fan_ok(v, NONE, x, &mut new) && new <= COS_FAR_MOVE_MIN_ANGLE.min(old))
+                    || self.move_leaves_surface(v, x)
+                {
+                    continue;
+                }
+                let ring: Vec<u32> = self.neighbor_iter(v).collect();
+                let (tris, hints, faces) = self.fan_move(v, x, r.hit.face);
+                let d2 = tris[1]
+                    .iter()
+                    .map(|t| crestflow_geom::bvh::closest_point_on_triangle(p, t[0], t[1], t[2]).0)
+                    .fold(f64::INFINITY, f64::min);
+                if d2 > pull.limit * pull.limit {
+                    continue;
+                }
+                // No trade here: every point near the fan stays within the limit (or as
+                // near as before).
+                let far_d2 = pull.far_d2;
+                pull.far_d2 = far_d2.min(pull.limit * pull.limit / (FAR_TRADE * FAR_TRADE));
+                let keeps = self.replacement_keeps_distances(
+                    q,
+                    &ring,
+                    self.hint[v as usize],
+                    [&tris[0], &tris[1]],
+                    [&hints[0], &hints[1]],
+                    &faces,
+                    pull,
+                );
+                pull.far_d2 = far_d2;
+                if !keeps {
+                    continue;
+                }
+                self.he.set_position(v, x);
+                self.hint[v as usize] = r.hit.face;
+                self.far_pulls_partway += 1;
+                return Some(v);
+            }
+        }
+        None
     }
 
     /// Where the far input point `p` (input vertex `i`, closest to output face `f`) lies
@@ -2914,7 +3008,7 @@ pub struct IsotropicNode;
 impl NodeKind for IsotropicNode {
     type Params = IsotropicParams;
     const KIND: &'static str = "remesh.isotropic";
-    const VERSION: u32 = 26;
+    const VERSION: u32 = 27;
     const DOC: &'static str = "Isotropic remeshing at a target edge length (Botsch & Kobbelt \
         2004, thesis §5.1.1): splits > 4/3 L, collapses < 4/5 L, valence-improving flips, \
         tangential relaxation (relaxation: Centroids, or Lloyd for Voronoi-cell centroids and \
@@ -2938,7 +3032,9 @@ impl NodeKind for IsotropicNode {
         least 0.4 pi (a box corner; also with sharp_edges off). Flips and \
         collapses do not create angles below 30° / 20° unless the old ones were smaller. \
         A free vertex of a triangle still below 30° at the end moves to a nearby place on the \
-        input that widens it (on a curved fan only to 30° or more). \
+        input that widens it (on a curved fan only to 30° or more). Last, an input vertex \
+        more than 0.3 L from the output pulls a vertex, a flip or a split onto it, or a \
+        vertex part of the way when that alone keeps 30° (report far_pulls_partway). \
         Vertices return to the input by a walk from their last face (BVH fallback). `target` \
         is a fraction of the bbox diagonal (relative: true) or absolute. Outputs the mesh and \
         a Report (vertices_out, feature_edges_in/out, feature_chains_from_curves, tip_vertices, part_corners, \
