@@ -1618,8 +1618,9 @@ fn remeshing_does_not_depend_on_the_scale() {
 /// reach is reached by moving a corner part of the way. On the bundled fandisk at 2 % with
 /// scale-conforming creases and Lloyd relaxation (graphs/scale-remesh-cad.ron with
 /// `relaxation: Lloyd`), one input vertex ended 0.318 L off (the middle of its crease edge
-/// 0.43 L): moving the nearest free corner onto it would leave a 28.2° triangle, the other
-/// corner's fan would turn too far, and no split kept 30°. Measured with the partial pull:
+/// 0.43 L): moving the nearest free corner onto it would leave a 28.2° triangle, moving the
+/// other would turn or flatten one of its triangles, and no split kept 30°. Measured with
+/// the partial pull through that graph:
 /// Hausdorff 0.00756 → 0.00481 of the diagonal.
 #[test]
 fn far_points_out_of_reach_are_pulled_partway() {
