@@ -1458,21 +1458,13 @@ impl State<'_> {
                 };
                 if partway_only {
                     if let Some(v) = self.pull_partway(&order, &blocked, &mut pull) {
-                        blocked[v as usize] = true;
-                        let ring: Vec<u32> = self.neighbor_iter(v).collect();
-                        for u in ring {
-                            blocked[u as usize] = true;
-                        }
+                        self.block_around(&mut blocked, v);
                     }
                     continue;
                 }
                 if let Some([c, d]) = self.flip_toward(f, &blocked, &mut pull) {
                     for v in [c, d] {
-                        blocked[v as usize] = true;
-                        let ring: Vec<u32> = self.neighbor_iter(v).collect();
-                        for u in ring {
-                            blocked[u as usize] = true;
-                        }
+                        self.block_around(&mut blocked, v);
                     }
                     moved.extend([c, d]);
                     continue;
@@ -1481,35 +1473,11 @@ impl State<'_> {
                     if !self.movable(v) {
                         continue;
                     }
-                    let old = self.fan_min_angle_cos(v, NONE);
-                    let mut new = -1.0;
-                    if !(self.fan_ok(v, NONE, p, &mut new)
-                        && (new <= COS_FAR_MOVE_MIN_ANGLE || new <= old))
-                        || self.move_leaves_surface(v, p)
-                    {
+                    let p_face = pull.p_face;
+                    if !self.move_for_far_point(v, p, p_face, false, &mut pull) {
                         continue;
                     }
-                    let ring: Vec<u32> = self.neighbor_iter(v).collect();
-                    let (q, q_hint) = (self.he.position(v), self.hint[v as usize]);
-                    let (tris, hints, faces) = self.fan_move(v, p, pull.p_face);
-                    if !self.replacement_keeps_distances(
-                        q,
-                        &ring,
-                        q_hint,
-                        [&tris[0], &tris[1]],
-                        [&hints[0], &hints[1]],
-                        &faces,
-                        &mut pull,
-                    ) {
-                        continue;
-                    }
-                    self.he.set_position(v, p);
-                    self.hint[v as usize] = pull.p_face;
-                    blocked[v as usize] = true;
-                    let ring: Vec<u32> = self.neighbor_iter(v).collect();
-                    for u in ring {
-                        blocked[u as usize] = true;
-                    }
+                    self.block_around(&mut blocked, v);
                     moved.push(v);
                     pulled = true;
                     break;
@@ -1517,11 +1485,7 @@ impl State<'_> {
                 if !pulled {
                     if let Some(m) = self.split_toward(f, &blocked, &mut pull) {
                         blocked.resize(self.he.n_vertex_slots(), false);
-                        blocked[m as usize] = true;
-                        let ring: Vec<u32> = self.neighbor_iter(m).collect();
-                        for u in ring {
-                            blocked[u as usize] = true;
-                        }
+                        self.block_around(&mut blocked, m);
                         moved.push(m);
                     }
                 }
@@ -1564,66 +1528,100 @@ impl State<'_> {
         }
     }
 
+    /// Marks `v` and its neighbours as moved in this far-point pass.
+    fn block_around(&self, blocked: &mut [bool], v: u32) {
+        blocked[v as usize] = true;
+        for u in self.neighbor_iter(v) {
+            blocked[u as usize] = true;
+        }
+    }
+
+    /// Moves free vertex `v` to `x` (on input face `x_face`) for the far point of `pull` when
+    /// its triangles turn by at most 60°, keep their area, make no long chord off the input,
+    /// and keep their smallest angle at 30° or more or no smaller than before (`partway`:
+    /// both), and nothing near ends up farther ([`State::move_keeps_distances`]; `partway`:
+    /// without the [`FAR_TRADE`] a full pull may make). Returns whether it moved.
+    fn move_for_far_point(
+        &mut self,
+        v: u32,
+        x: V3,
+        x_face: u32,
+        partway: bool,
+        pull: &mut FarPull<'_>,
+    ) -> bool {
+        let old = self.fan_min_angle_cos(v, NONE);
+        let mut new = -1.0;
+        if !self.fan_ok(v, NONE, x, &mut new) {
+            return false;
+        }
+        let angles_ok = if partway {
+            new <= COS_FAR_MOVE_MIN_ANGLE.min(old)
+        } else {
+            new <= COS_FAR_MOVE_MIN_ANGLE || new <= old
+        };
+        if !angles_ok || self.move_leaves_surface(v, x) {
+            return false;
+        }
+        let ring: Vec<u32> = self.neighbor_iter(v).collect();
+        let (q, q_hint) = (self.he.position(v), self.hint[v as usize]);
+        let (tris, hints, faces) = self.fan_move(v, x, x_face);
+        if partway {
+            let d2 = tris[1]
+                .iter()
+                .map(|t| crestflow_geom::bvh::closest_point_on_triangle(pull.p, t[0], t[1], t[2]).0)
+                .fold(f64::INFINITY, f64::min);
+            if d2 > pull.limit * pull.limit {
+                return false;
+            }
+        }
+        // A partial pull makes no trade: the bound on what the move may uncover drops to
+        // the limit itself.
+        let far_d2 = pull.far_d2;
+        if partway {
+            pull.far_d2 = far_d2.min(pull.limit * pull.limit / (FAR_TRADE * FAR_TRADE));
+        }
+        let keeps = self.replacement_keeps_distances(
+            q,
+            &ring,
+            q_hint,
+            [&tris[0], &tris[1]],
+            [&hints[0], &hints[1]],
+            &faces,
+            pull,
+        );
+        pull.far_d2 = far_d2;
+        if !keeps {
+            return false;
+        }
+        self.he.set_position(v, x);
+        self.hint[v as usize] = x_face;
+        true
+    }
+
     /// Where no full pull reached the far point, a free vertex of `order` (its face's corners,
     /// nearest first, then their neighbours) moves three quarters, half or a quarter of the
     /// way toward it, projected onto the input, when that brings the point within
-    /// [`FAR_POINT`]·L, its triangles keep an angle of at least 30° and no smaller than
-    /// before, and nothing near ends up farther than the limit unless it was before (no
-    /// [`FAR_TRADE`] as for a full pull). Returns the vertex moved.
+    /// [`FAR_POINT`]·L under the tests of [`State::move_for_far_point`] with `partway`.
+    /// Returns the vertex moved.
     fn pull_partway(
         &mut self,
         order: &[u32],
         blocked: &[bool],
         pull: &mut FarPull<'_>,
     ) -> Option<u32> {
-        let p = pull.p;
         for &v in order {
             if !self.movable(v) || blocked[v as usize] {
                 continue;
             }
             let q = self.he.position(v);
-            let old = self.fan_min_angle_cos(v, NONE);
             for t in [0.75, 0.5, 0.25] {
                 let r = self
                     .proj
-                    .project(vec3::lerp(q, p, t), self.hint[v as usize], self.l);
-                let x = r.hit.point;
-                let mut new = -1.0;
-                if !(self.fan_ok(v, NONE, x, &mut new) && new <= COS_FAR_MOVE_MIN_ANGLE.min(old))
-                    || self.move_leaves_surface(v, x)
-                {
-                    continue;
+                    .project(vec3::lerp(q, pull.p, t), self.hint[v as usize], self.l);
+                if self.move_for_far_point(v, r.hit.point, r.hit.face, true, pull) {
+                    self.far_pulls_partway += 1;
+                    return Some(v);
                 }
-                let ring: Vec<u32> = self.neighbor_iter(v).collect();
-                let (tris, hints, faces) = self.fan_move(v, x, r.hit.face);
-                let d2 = tris[1]
-                    .iter()
-                    .map(|t| crestflow_geom::bvh::closest_point_on_triangle(p, t[0], t[1], t[2]).0)
-                    .fold(f64::INFINITY, f64::min);
-                if d2 > pull.limit * pull.limit {
-                    continue;
-                }
-                // No trade here: every point near the fan stays within the limit (or as
-                // near as before).
-                let far_d2 = pull.far_d2;
-                pull.far_d2 = far_d2.min(pull.limit * pull.limit / (FAR_TRADE * FAR_TRADE));
-                let keeps = self.replacement_keeps_distances(
-                    q,
-                    &ring,
-                    self.hint[v as usize],
-                    [&tris[0], &tris[1]],
-                    [&hints[0], &hints[1]],
-                    &faces,
-                    pull,
-                );
-                pull.far_d2 = far_d2;
-                if !keeps {
-                    continue;
-                }
-                self.he.set_position(v, x);
-                self.hint[v as usize] = r.hit.face;
-                self.far_pulls_partway += 1;
-                return Some(v);
             }
         }
         None
