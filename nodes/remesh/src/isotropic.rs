@@ -22,8 +22,8 @@
 //!    feature vertex): it moves a 5–7 pair by one edge, and pairs that meet one of the
 //!    opposite orientation cancel, which flips that must lower the deviation never do (the
 //!    bunny's valence-6 share 0.79 → 0.80–0.83 with limits of 5° / 10°, 0.85–0.88 with
-//!    25° / 40°). Each sweep visits every edge once. In the
-//!    last round and after it no split follows: there a flip may not make an edge longer than
+//!    25° / 40°). Each sweep visits every edge once. In the last round and after it no
+//!    split follows: there a flip may not make an edge longer than
 //!    the split length whose middle lies farther than `FAR_POINT`·L from the input (and than
 //!    the old edge's), a chord across a curved pair. No flip crosses a fold steeper than 60°
 //!    unless the pair spans a crease of the input that the other diagonal follows (its

@@ -1559,11 +1559,11 @@ fn slivers_on_curved_patches_are_widened_to_thirty_degrees() {
 #[test]
 fn sideways_flips_reach_curved_organic_patches() {
     // The subdivided armadillo at 1 % along its scale-conforming sharp edges: most of its
-    // 5–7 pairs sit where a pair of triangles folds by more than 5°, and with sideways flips
-    // limited to such flat pairs (version 28) 0.775 of its vertices end regular. Flips on
-    // folds up to 25° (corner normals within 40°) move the pairs until they cancel: 0.804,
-    // with the smallest angle still 30° and the farthest input vertex 0.429 L off, as
-    // before.
+    // irregular vertices are 5–7 pairs (in the benchmark's output, 670 of its 851 valence-5
+    // vertices have a valence-7 neighbour). With sideways flips limited to pairs that fold by
+    // less than 5° (version 28) 0.775 of its vertices end regular; on folds up to 25° (corner
+    // normals within 40°) the pairs move until they cancel: 0.804, with the smallest angle
+    // still 30° and the farthest input vertex 0.429 L off, as before.
     let input = midpoint_subdivided(&shared_mesh("organic/cgal_armadillo.off"));
     let (_, _, network) = conforming_sharp_edges(&input, 0.01, 0.01);
     let out = isotropic(&input, Some(&network), &curves_only(0.01), Par::Rayon).unwrap();
