@@ -63,8 +63,9 @@
 //! to move are coloured greedily in face order so that no two of a colour are neighbours; the
 //! moves of one colour do not change what the others of it find, so they are planned on the
 //! pool and made colour by colour (the default fandisk_large at 2 %, where most of these moves
-//! are made, about 6 % faster on two threads). Those moves change which flips raise a pair's smallest angle (a free vertex fanning over short
-//! feature edges ends up beside them), so the flip sweep and the moves run once more. Where a
+//! are made, about 6 % faster on two threads). Those moves change which flips raise a pair's
+//! smallest angle (a free vertex fanning over short feature edges ends up beside them), so
+//! the flip sweep and the moves run once more. Where a
 //! triangle is still below 30°, its free corners may move onto an input vertex up to 0.8 L
 //! away for any gain in their fans' smallest angle (no turn over 60°, no chord off the
 //! surface), each round followed by the nearby moves again; the vertices so moved go back in
