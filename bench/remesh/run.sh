@@ -16,6 +16,7 @@
 # and grades every output with the same code (min angle, valence-6 share, pymeshlab Hausdorff,
 # sharp edges kept). Prints the JSON lines, then a table with the time ratios.
 # PEERS (default pymeshlab,gpytoolbox,cgal) picks the peers; PEERS="" grades ours only.
+# REPAIR=1 loads our inputs with `repair: true` (non-manifold meshes; bench/remesh/corpus.sh).
 # bench/remesh/orientations.sh runs all this on six axis orders of each mesh.
 set -euo pipefail
 
@@ -31,30 +32,32 @@ fi
 OUT=$(realpath "$OUT")  # cargo bench runs in the crate folder: pass absolute paths
 ABS=()
 for m in $MESHES; do ABS+=("$(realpath "$m")"); done
+EXTRA=()
+if [ "${REPAIR:-0}" != "0" ]; then EXTRA+=(--repair); fi
 
-cargo bench -q -p crestflow-nodes-remesh --bench remesh -- "$OUT" "${ABS[@]}" --targets "$TARGETS" \
+cargo bench -q -p crestflow-nodes-remesh --bench remesh -- "$OUT" "${ABS[@]}" --targets "$TARGETS" ${EXTRA[@]+"${EXTRA[@]}"} \
     | tee "$OUT/ours.jsonl"
 # The same with local refinement along curved features (method crestflow_graded); GRADING=0
 # skips it.
 GRADING=${GRADING:-0.3}
 if [ "$GRADING" != "0" ]; then
-    cargo bench -q -p crestflow-nodes-remesh --bench remesh -- "$OUT" "${ABS[@]}" --targets "$TARGETS" \
+    cargo bench -q -p crestflow-nodes-remesh --bench remesh -- "$OUT" "${ABS[@]}" --targets "$TARGETS" ${EXTRA[@]+"${EXTRA[@]}"} \
         --feature-grading "$GRADING" | tee -a "$OUT/ours.jsonl"
 fi
 # The scale-conforming features instead of every sharp edge (method crestflow_conforming):
 # sharp edges pruned at the target, scale.conform at r_min = target, then the remeshing.
 # CONFORMING=0 skips it.
 if [ "${CONFORMING:-1}" != "0" ]; then
-    cargo bench -q -p crestflow-nodes-remesh --bench remesh -- "$OUT" "${ABS[@]}" --targets "$TARGETS" \
+    cargo bench -q -p crestflow-nodes-remesh --bench remesh -- "$OUT" "${ABS[@]}" --targets "$TARGETS" ${EXTRA[@]+"${EXTRA[@]}"} \
         --conforming | tee -a "$OUT/ours.jsonl"
 fi
 # Relaxation towards Voronoi-cell centroids (`relaxation: Lloyd`) for the plain and the
 # conforming method (methods crestflow_lloyd, crestflow_conforming_lloyd); LLOYD=0 skips it.
 if [ "${LLOYD:-1}" != "0" ]; then
-    cargo bench -q -p crestflow-nodes-remesh --bench remesh -- "$OUT" "${ABS[@]}" --targets "$TARGETS" \
+    cargo bench -q -p crestflow-nodes-remesh --bench remesh -- "$OUT" "${ABS[@]}" --targets "$TARGETS" ${EXTRA[@]+"${EXTRA[@]}"} \
         --lloyd | tee -a "$OUT/ours.jsonl"
     if [ "${CONFORMING:-1}" != "0" ]; then
-        cargo bench -q -p crestflow-nodes-remesh --bench remesh -- "$OUT" "${ABS[@]}" --targets "$TARGETS" \
+        cargo bench -q -p crestflow-nodes-remesh --bench remesh -- "$OUT" "${ABS[@]}" --targets "$TARGETS" ${EXTRA[@]+"${EXTRA[@]}"} \
             --conforming --lloyd | tee -a "$OUT/ours.jsonl"
     fi
 fi

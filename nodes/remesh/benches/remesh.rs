@@ -3,6 +3,7 @@
 //!   cargo bench -p crestflow-nodes-remesh --bench remesh -- OUT_DIR MESH... [--targets 1,2]
 //!       [--feature-tolerance 0.002] [--iterations 10] [--smoothing-steps 5]
 //!       [--feature-grading 0] [--conforming [--sharp-angle 30]] [--lloyd] [--repeats 3]
+//!       [--repair]
 //!
 //! With `--conforming` (method `crestflow_conforming`) the features are not every sharp edge
 //! but the scale-conforming subset of them: `remesh.sharp_edges` pruned at the target,
@@ -11,6 +12,8 @@
 //! sets the dihedral angle above which an edge is sharp there (dense networks at 5°–15°; the
 //! method's name then ends in `_A`). With `--lloyd`
 //! the remeshing runs with `relaxation: Lloyd` and the method's name ends in `_lloyd`.
+//! `--repair` loads the meshes as `io.load_mesh` does with `repair: true` (non-manifold edges
+//! and vertices split, faces oriented coherently; `bench/remesh/corpus.sh`).
 //!
 //! For each mesh and target (percent of the bounding-box diagonal): the median of 3 runs
 //! (`--repeats N`: N runs, e.g. for a profiler) of
@@ -58,6 +61,8 @@ fn main() {
     args.retain(|a| a != "--conforming");
     let lloyd = args.iter().any(|a| a == "--lloyd");
     args.retain(|a| a != "--lloyd");
+    let repair = args.iter().any(|a| a == "--repair");
+    args.retain(|a| a != "--repair");
     if let Some(list) = take_value::<String>(&mut args, "--targets") {
         targets = list.split(',').filter_map(|t| t.parse().ok()).collect();
     }
@@ -71,7 +76,11 @@ fn main() {
         std::process::exit(1);
     }
     for path in &args[1..] {
-        let mesh = match load_mesh(path, &LoadOptions::default()) {
+        let options = LoadOptions {
+            repair,
+            ..Default::default()
+        };
+        let mesh = match load_mesh(path, &options) {
             Ok(m) => m.mesh,
             Err(e) => {
                 eprintln!("{e}");
