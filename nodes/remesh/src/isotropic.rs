@@ -4,12 +4,7 @@
 //! boundaries.
 //!
 //! Each of `iterations` rounds, at target edge length L:
-//! 1. split every edge longer than 4/3 L at its midpoint, longest first (repeated until none
-//!    is left); in the first round, an edge of the input's tessellation opposite an angle
-//!    above 150° (a cap, as CAD exports are made of) is flipped instead when the pair folds
-//!    by at most 10° and the other diagonal is shorter: bisected, it would leave a vertex
-//!    beside the cap's apex and two needles (cgal_pinion at 1 %, scale conforming: 295k
-//!    splits for a 14k-vertex output before, 130k after);
+//! 1. split every edge longer than 4/3 L at its midpoint (repeated until none is left);
 //! 2. collapse every edge shorter than 4/5 L (into its midpoint when both ends are free)
 //!    unless that creates an edge longer than 4/3 L, breaks the link condition, turns a
 //!    surviving triangle by more than 60°, or creates an angle below both 20° and the
@@ -622,9 +617,7 @@ fn isotropic_with(
         if params.feature_grading > 0.0 {
             st.update_sizes();
         }
-        // The first round's long edges are the input's own: where it has caps (thin
-        // triangles with an angle near 180°), those are flipped rather than bisected.
-        st.split_long(params.max_vertices, round == 0, par)?;
+        st.split_long(params.max_vertices, par)?;
         check()?;
         st.collapse_short();
         st.equalize_valences(par, true);
@@ -850,15 +843,7 @@ impl State<'_> {
         cap[i].min(cap[(i + 1).min(cap.len() - 1)])
     }
 
-    /// Splits every edge longer than 4/3 of the local target length, longest first, in sweeps
-    /// until none is left. With `flip_caps`, a long edge of the input's tessellation that a cap
-    /// stands on is flipped instead when that is allowed ([`Self::flip_cap`]).
-    fn split_long(
-        &mut self,
-        max_vertices: usize,
-        flip_caps: bool,
-        par: Par,
-    ) -> Result<(), RemeshError> {
+    fn split_long(&mut self, max_vertices: usize, par: Par) -> Result<(), RemeshError> {
         for _ in 0..64 {
             let mut any = false;
             // Longest edges first (ties by slot): longest-edge bisection never makes a
@@ -901,10 +886,6 @@ impl State<'_> {
                     });
                 }
                 let t = self.he.tag(h);
-                if flip_caps && t == NONE && self.flip_cap(h) {
-                    any = true;
-                    continue;
-                }
                 // A feature edge is split at the middle of its stretch of chain.
                 let (mid, s) = if t != NONE {
                     let c = &self.chains[t as usize];
@@ -939,47 +920,6 @@ impl State<'_> {
             }
         }
         Ok(())
-    }
-
-    /// Flips the edge of `h` when one of its two triangles is a cap (its angle opposite the
-    /// edge above 150°), the two fold by at most 10° and the other diagonal is shorter. Bisecting a cap's long side puts
-    /// the new vertex next to the cap's apex: a very short edge and two needles, which are
-    /// bisected again and again along their length. CAD exports are tessellated with such
-    /// triangles (cgal_pinion at 1 %: 295k splits for a 14k-vertex output, most collapsed
-    /// again). Each flip makes an edge shorter, so the flips end.
-    fn flip_cap(&mut self, h: u32) -> bool {
-        let g = self.he.opp(h);
-        if g == NONE {
-            return false;
-        }
-        let (a, b) = (self.he.from(h), self.he.to(h));
-        let c = self.he.from(halfedge::prev(h));
-        let d = self.he.from(halfedge::prev(g));
-        let (pa, pb) = (self.he.position(a), self.he.position(b));
-        let cap = |o: u32| {
-            let po = self.he.position(o);
-            let (u, w) = (vec3::sub(pa, po), vec3::sub(pb, po));
-            vec3::dot(u, w) < COS_CAP_APEX * vec3::norm(u) * vec3::norm(w)
-        };
-        // Only where the pair is nearly flat: with flips across folds of 10–20° as well,
-        // trimesh_featuretype at 2 % (every sharp edge kept) ended with 30 % more vertices,
-        // half of its edges shorter than 0.8 L, in bands along its creases that the
-        // collapses did not thin. A bound on how far the flip moves the surface instead (the
-        // height of the tetrahedron a b c d, down to 0.05 L) did not prevent that.
-        let (n1, n2) = (
-            self.he.face_normal_raw(halfedge::face_of(h)),
-            self.he.face_normal_raw(halfedge::face_of(g)),
-        );
-        if vec3::dot(n1, n2) < COS_CAP_FOLD * vec3::norm(n1) * vec3::norm(n2)
-            || !(cap(c) || cap(d))
-            || self.len2(c, d) >= self.len2(a, b)
-            || !self.he.flip_ok(h)
-        {
-            return false;
-        }
-        self.he.flip(h);
-        self.flips += 1;
-        true
     }
 
     /// Arc-length parameter of vertex `u` on chain `c` (an edge of `u` is tagged `c`): its own
@@ -3262,16 +3202,6 @@ const COS_FAR_MOVE_MIN_ANGLE: f64 = 0.866_025_403_784_438_6;
 /// 0.00448 → 0.00440).
 const COS_SIDEWAYS_FLAT: f64 = 0.906_307_787_036_649_9;
 
-/// Cosine of 10°: the largest fold between a cap and its neighbour across the long edge for
-/// which the first round flips that edge instead of bisecting it ([`State::flip_cap`]).
-const COS_CAP_FOLD: f64 = 0.984_807_753_012_208;
-
-/// Cosine of 150°: a triangle with a larger angle is a cap, whose long side the first round
-/// flips rather than bisects ([`State::flip_cap`]). With 120°, cgal_couplingdown's scale-
-/// conforming remesh at 2 % ended at 26.1–27.8° in all six axis orders of the benchmark
-/// (30.0–30.1° with 150° and with version 30), where 120° saved another 23 % of its splits.
-const COS_CAP_APEX: f64 = -0.866_025_403_784_438_6;
-
 /// cos 40°: how far the vertex normals of its four corners may turn from the pair's normal.
 const COS_SIDEWAYS_NORMALS: f64 = 0.766_044_443_118_978;
 
@@ -3346,7 +3276,7 @@ pub struct IsotropicNode;
 impl NodeKind for IsotropicNode {
     type Params = IsotropicParams;
     const KIND: &'static str = "remesh.isotropic";
-    const VERSION: u32 = 31;
+    const VERSION: u32 = 30;
     const DOC: &'static str = "Isotropic remeshing at a target edge length (Botsch & Kobbelt \
         2004, thesis §5.1.1): splits > 4/3 L, collapses < 4/5 L, valence-improving flips, \
         tangential relaxation (relaxation: Centroids, or Lloyd for Voronoi-cell centroids and \

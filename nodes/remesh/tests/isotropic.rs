@@ -1703,36 +1703,3 @@ fn far_points_out_of_reach_are_pulled_partway() {
     let lo = min_angle_deg(&r.mesh);
     assert!(lo >= 30.0, "min angle {lo:.2}°");
 }
-
-/// cgal_pinion (650 vertices) is tessellated as CAD exports are: long triangles, many of them
-/// caps (an angle above 150° opposite a long side). Bisecting such a side puts the new vertex
-/// next to the cap's apex and leaves two needles that are bisected again along their length:
-/// 29,444 splits at 2 % for a 3.8k-vertex output (version 30), most collapsed again. The
-/// first round flips those sides instead where the pair is nearly flat (measured: 8,013
-/// splits), with the same output quality.
-#[test]
-fn caps_of_a_coarse_cad_tessellation_are_flipped_not_bisected() {
-    let input = shared_mesh("cad/cgal_pinion.off");
-    let params = IsotropicParams {
-        target: 0.02,
-        ..Default::default()
-    };
-    let out = isotropic(&input, None, &params, Par::Rayon).unwrap();
-    let splits = out.report.num("splits").unwrap();
-    let vertices = out.mesh.n_vertices();
-    let h = hausdorff(&out.mesh, &input) / input.bbox_diagonal();
-    eprintln!("splits {splits}, vertices {vertices}, Hausdorff {h}");
-    assert!(splits < 10_000.0, "{splits} splits");
-    // Measured: 3647 vertices (3779 with bisection only), Hausdorff 0.00120 of the diagonal
-    // (0.00122 with bisection only).
-    assert!((3300..4200).contains(&vertices), "{vertices} vertices");
-    assert!(h < 0.003, "Hausdorff {h}");
-    // Its sharp edges are kept (510 in the input, each still an edge of the output), so the
-    // smallest angle is bounded by them (22.1° either way).
-    assert!(
-        min_angle_deg(&out.mesh) > 20.0,
-        "{}",
-        min_angle_deg(&out.mesh)
-    );
-    assert_manifold(&out.mesh);
-}
