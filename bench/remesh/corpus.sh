@@ -6,7 +6,7 @@
 #
 # Ours with default parameters and scale conforming (GRADING and LLOYD off), inputs loaded with
 # `repair: true` (three of the meshes are not manifold), at 1 % and 2 %; PEERS="" by default
-# (set PEERS=pymeshlab,gpytoolbox,cgal for the peers too: about an hour). Outputs and
+# (set PEERS=pymeshlab,gpytoolbox,cgal for the peers too; they take most of the time). Outputs and
 # results.jsonl go to $OUT/corpus; prints run.sh's table, then bench/remesh/corpus.py's
 # summary: per method, how many of the mesh × target rows reach each goal.
 set -euo pipefail
