@@ -17,6 +17,7 @@
 # sharp edges kept). Prints the JSON lines, then a table with the time ratios.
 # PEERS (default pymeshlab,gpytoolbox,cgal) picks the peers; PEERS="" grades ours only.
 # REPAIR=1 loads our inputs with `repair: true` (non-manifold meshes; bench/remesh/corpus.sh).
+# BOUNDARY_TOLERANCE=F sets remesh.isotropic's boundary_tolerance (default 0.25) in our runs.
 # bench/remesh/orientations.sh runs all this on six axis orders of each mesh.
 set -euo pipefail
 
@@ -34,6 +35,7 @@ ABS=()
 for m in $MESHES; do ABS+=("$(realpath "$m")"); done
 EXTRA=()
 if [ "${REPAIR:-0}" != "0" ]; then EXTRA+=(--repair); fi
+if [ -n "${BOUNDARY_TOLERANCE:-}" ]; then EXTRA+=(--boundary-tolerance "$BOUNDARY_TOLERANCE"); fi
 
 cargo bench -q -p crestflow-nodes-remesh --bench remesh -- "$OUT" "${ABS[@]}" --targets "$TARGETS" ${EXTRA[@]+"${EXTRA[@]}"} \
     | tee "$OUT/ours.jsonl"

@@ -1,7 +1,7 @@
 //! Remeshing speed and output for the peer comparison (`bench/remesh/run.sh`).
 //!
 //!   cargo bench -p crestflow-nodes-remesh --bench remesh -- OUT_DIR MESH... [--targets 1,2]
-//!       [--feature-tolerance 0.002] [--iterations 10] [--smoothing-steps 5]
+//!       [--feature-tolerance 0.002] [--boundary-tolerance 0.25] [--iterations 10] [--smoothing-steps 5]
 //!       [--feature-grading 0] [--conforming [--sharp-angle 30]] [--lloyd] [--repeats 3]
 //!       [--repair]
 //!
@@ -52,6 +52,8 @@ fn main() {
     let d = IsotropicParams::default();
     let feature_tolerance =
         take_value(&mut args, "--feature-tolerance").unwrap_or(d.feature_tolerance);
+    let boundary_tolerance =
+        take_value(&mut args, "--boundary-tolerance").unwrap_or(d.boundary_tolerance);
     let iterations = take_value(&mut args, "--iterations").unwrap_or(d.iterations);
     let feature_grading = take_value(&mut args, "--feature-grading").unwrap_or(d.feature_grading);
     let sharp_angle: Option<f64> = take_value(&mut args, "--sharp-angle");
@@ -95,6 +97,7 @@ fn main() {
             let params = IsotropicParams {
                 target: pct / 100.0,
                 feature_tolerance,
+                boundary_tolerance,
                 iterations,
                 smoothing_steps,
                 feature_grading,

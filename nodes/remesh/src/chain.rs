@@ -84,6 +84,51 @@ impl Chain {
         }
     }
 
+    /// The stretch between `a` and `b` (parameters in [0, total)) that contains the parameter
+    /// `s`, as `(lo, hi)` with `lo` one of the two and `lo <= hi`: on a loop, the way round
+    /// through `s`, long or short (a vertex lies on the stretch joining its two chain
+    /// neighbours even when a short loop makes that the longer way); elsewhere
+    /// [`Chain::interval`].
+    pub fn interval_through(&self, a: f64, b: f64, s: f64) -> (f64, f64) {
+        if !self.closed {
+            return self.interval(a, b);
+        }
+        let [inner, outer] = self.arcs(a, b);
+        if self.inside(inner, s) {
+            inner
+        } else {
+            outer
+        }
+    }
+
+    /// The stretch between `a` and `b` that does not contain the parameter `s`: on a loop, the
+    /// stretch an edge stands for, given a chain vertex off the edge; elsewhere
+    /// [`Chain::interval`].
+    pub fn interval_avoiding(&self, a: f64, b: f64, s: f64) -> (f64, f64) {
+        if !self.closed {
+            return self.interval(a, b);
+        }
+        let [inner, outer] = self.arcs(a, b);
+        if self.inside(inner, s) {
+            outer
+        } else {
+            inner
+        }
+    }
+
+    /// The two ways round a loop between `a` and `b`: `(lo, hi)` and `(hi, lo + total)`.
+    fn arcs(&self, a: f64, b: f64) -> [(f64, f64); 2] {
+        let (lo, hi) = if a <= b { (a, b) } else { (b, a) };
+        [(lo, hi), (hi, lo + self.total())]
+    }
+
+    /// Whether `s` lies strictly inside the stretch `(lo, hi)`.
+    fn inside(&self, (lo, hi): (f64, f64), s: f64) -> bool {
+        let s = self.wrap(s);
+        let t = self.total();
+        (lo < s && s < hi) || (lo < s + t && s + t < hi)
+    }
+
     /// Middle parameter of the stretch between `a` and `b` (wrapped).
     pub fn middle(&self, a: f64, b: f64) -> f64 {
         let (lo, hi) = self.interval(a, b);
@@ -94,6 +139,12 @@ impl Chain {
     /// chain turns most (`None` when no point lies inside).
     pub fn sharpest_between(&self, a: f64, b: f64) -> Option<f64> {
         let (lo, hi) = self.interval(a, b);
+        self.sharpest_over(lo, hi)
+    }
+
+    /// [`Chain::sharpest_between`] over the stretch `(lo, hi)` (as [`Chain::interval`] and its
+    /// variants give it).
+    pub fn sharpest_over(&self, lo: f64, hi: f64) -> Option<f64> {
         let n = self.pts.len();
         let t = self.total();
         let laps = if self.closed { 2 } else { 1 };
@@ -134,6 +185,12 @@ impl Chain {
     /// `b` to the segment [pa, pb].
     pub fn deviation(&self, a: f64, b: f64, pa: V3, pb: V3) -> f64 {
         let (lo, hi) = self.interval(a, b);
+        self.deviation_over(lo, hi, pa, pb)
+    }
+
+    /// [`Chain::deviation`] over the stretch `(lo, hi)` (as [`Chain::interval`] and its
+    /// variants give it).
+    pub fn deviation_over(&self, lo: f64, hi: f64, pa: V3, pb: V3) -> f64 {
         let t = self.total();
         let laps = if self.closed { 2 } else { 1 };
         let mut worst: f64 = 0.0;

@@ -110,3 +110,24 @@ fn sharpest_between_picks_the_largest_turn_inside_the_stretch() {
     assert_eq!(sq.sharpest_between(3.5, 0.5), Some(0.0));
     assert_eq!(sq.sharpest_between(1.5, 2.5), Some(2.0));
 }
+
+#[test]
+fn a_stretch_through_a_point_may_be_the_longer_way_round() {
+    let c = square();
+    // From 0.5 to 3.5: the shorter way passes 0 (the corner (0,0)), the longer one 2.
+    assert_eq!(c.interval(0.5, 3.5), (3.5, 4.5));
+    assert_eq!(c.interval_through(0.5, 3.5, 0.1), (3.5, 4.5));
+    assert_eq!(c.interval_through(3.5, 0.5, 3.9), (3.5, 4.5));
+    assert_eq!(c.interval_through(0.5, 3.5, 2.0), (0.5, 3.5));
+    assert_eq!(c.interval_avoiding(0.5, 3.5, 2.0), (3.5, 4.5));
+    assert_eq!(c.interval_avoiding(0.5, 3.5, 0.1), (0.5, 3.5));
+    // The longer way's middle is the far corner (1,1), 0.75·sqrt(2) from the chord's middle.
+    let (lo, hi) = c.interval_through(0.5, 3.5, 2.0);
+    assert_eq!(c.point_at(0.5 * (lo + hi)), [1.0, 1.0, 0.0]);
+    let d = c.deviation_over(lo, hi, c.point_at(0.5), c.point_at(3.5));
+    assert!((d - 0.75 * 2f64.sqrt()).abs() < 1e-12, "{d}");
+    // An open chain has one stretch between two points.
+    let e = ell();
+    assert_eq!(e.interval_through(2.5, 0.5, 1.0), (0.5, 2.5));
+    assert_eq!(e.interval_avoiding(2.5, 0.5, 1.0), (0.5, 2.5));
+}

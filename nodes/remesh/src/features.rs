@@ -13,10 +13,17 @@
 //!   the network (its vertices joined through two-edge vertices), detours of the joined paths
 //!   that come back to a vertex already passed are cut out.
 //!
+//! A stretch of curve between two vertices of one boundary follows the boundary instead when
+//! that way is at most [`BOUNDARY_DETOUR`] times as long and stays within
+//! [`BOUNDARY_FOLLOW_OFFSET`] of the stretch's chord: a network of sharp edges and boundaries
+//! (`remesh.sharp_edges`, resampled by `scale.conform`) stands for the boundary there, which
+//! is kept anyway.
+//!
 //! The feature edges form a graph. Its *corners* are vertices with a number of feature edges
 //! other than two, and two-edge vertices where the feature turns by more than a threshold;
 //! between two curve edges, the turn is the network's own at a network vertex snapped there
-//! (the edge path's turns do not count). Chains are the feature paths between corners, or
+//! (the edge path's turns do not count); inside a boundary, after [`mark_boundary_corners`],
+//! the turn at the scale of the target length. Chains are the feature paths between corners, or
 //! closed loops without one. In the output, corners stay where they are, and other feature
 //! vertices slide along their chain only.
 //!
@@ -36,6 +43,7 @@ use crestflow_geom::mesh::NO_FACE;
 use crestflow_geom::vec3::{self, V3};
 use crestflow_geom::{FeatureCurveNetwork, TriMesh};
 
+use crate::bvh::closest_on_segment;
 use crate::project::Projector;
 
 /// Where a network vertex lies on a mesh element that does not exist.
@@ -71,6 +79,10 @@ pub struct FeatureEdges {
     /// Curve edges dropped by [`trim_curve_ends_near`].
     pub trimmed: usize,
     pub boundary: usize,
+    /// Per input vertex, set by [`mark_boundary_corners`]: whether a vertex inside a boundary
+    /// (two boundary edges and no other feature edge) is a corner. Empty: such vertices follow
+    /// the per-vertex turning rule of [`build_chains`].
+    pub boundary_corner: Vec<bool>,
     pub sharp: usize,
     pub from_curves: usize,
     pub segments_unjoined: usize,
@@ -167,7 +179,16 @@ pub fn mark_features(
                 if u == w {
                     continue;
                 }
-                match shortest_path(mesh, u, w) {
+                let path = shortest_path(mesh, u, w).map(|path| {
+                    // A stretch of curve between two vertices of one boundary follows the
+                    // boundary where that is not much longer: it stands for the boundary (a
+                    // network of sharp edges and boundaries, resampled at scale), which is kept
+                    // anyway, and a shortcut across its ragged bends would keep a second chain
+                    // one triangle inside it.
+                    let len = path_length(mesh, &path);
+                    boundary_path(mesh, u, w, BOUNDARY_DETOUR * len).unwrap_or(path)
+                });
+                match path {
                     Some(path) => {
                         let n = path.len();
                         seq.extend(
@@ -268,6 +289,68 @@ fn strokes(net: &FeatureCurveNetwork) -> Vec<Vec<u32>> {
 
 /// No network vertex at this path vertex.
 const NONE_NET: u32 = u32::MAX;
+
+/// How much longer than the shortest edge path between two boundary vertices the way along
+/// the boundary may be for a curve stretch between them to follow the boundary (a boundary
+/// that steps at right angles across a grid is twice as long as the straight path).
+const BOUNDARY_DETOUR: f64 = 2.5;
+
+/// How far from the straight segment between its ends, relative to that segment's length,
+/// the way along the boundary may stray for a curve stretch to follow it: a boundary that
+/// bends away (a rounded end, a corner a crease cuts off) is not the curve.
+const BOUNDARY_FOLLOW_OFFSET: f64 = 0.3;
+
+/// Length of an edge path.
+fn path_length(mesh: &TriMesh, path: &[u32]) -> f64 {
+    path.windows(2)
+        .map(|w| vec3::dist(mesh.positions[w[0] as usize], mesh.positions[w[1] as usize]))
+        .sum()
+}
+
+/// The shorter way from `u` to `w` along boundary edges, through vertices with two boundary
+/// edges only, if one is at most `max_len` long and no vertex of it lies farther from the
+/// segment `u`–`w` than [`BOUNDARY_FOLLOW_OFFSET`] times its length.
+fn boundary_path(mesh: &TriMesh, u: u32, w: u32, max_len: f64) -> Option<Vec<u32>> {
+    let topo = mesh.topology();
+    let boundary_neighbors = |v: u32| {
+        topo.neighbors(v).iter().copied().filter(move |&x| {
+            topo.find_edge(v, x)
+                .is_some_and(|e| topo.is_boundary_edge(e))
+        })
+    };
+    let mut best: Option<(f64, Vec<u32>)> = None;
+    for first in boundary_neighbors(u) {
+        let (mut prev, mut cur) = (u, first);
+        let mut path = vec![u];
+        let mut len = 0.0;
+        loop {
+            len += vec3::dist(mesh.positions[prev as usize], mesh.positions[cur as usize]);
+            if len > max_len || best.as_ref().is_some_and(|b| len >= b.0) {
+                break;
+            }
+            path.push(cur);
+            if cur == w {
+                best = Some((len, path));
+                break;
+            }
+            let mut next = boundary_neighbors(cur).filter(|&x| x != prev);
+            match (next.next(), next.next()) {
+                (Some(x), None) if x != u && boundary_neighbors(cur).count() == 2 => {
+                    (prev, cur) = (cur, x)
+                }
+                _ => break,
+            }
+        }
+    }
+    let (pu, pw) = (mesh.positions[u as usize], mesh.positions[w as usize]);
+    let limit = BOUNDARY_FOLLOW_OFFSET * vec3::dist(pu, pw);
+    best.map(|(_, p)| p).filter(|p| {
+        p.iter().all(|&x| {
+            let q = mesh.positions[x as usize];
+            vec3::dist(q, closest_on_segment(q, pu, pw).0) <= limit
+        })
+    })
+}
 
 /// The path `seq` without the detours that come back to a vertex already on it (the edge
 /// paths of two consecutive network edges may overlap, or touch, near the network vertex
@@ -453,6 +536,107 @@ pub struct Chains {
     /// Per chain: made of curve edges only; its points are then the network's own (the
     /// chain's ends and the network vertices in between), not the edge path's.
     pub from_curves: Vec<bool>,
+    /// Per chain: made of boundary edges (a chain is either all boundary or none: a vertex
+    /// with a boundary edge and another feature edge is a corner).
+    pub on_boundary: Vec<bool>,
+}
+
+/// Decides which vertices inside boundaries are corners, at the scale `scale` (an arc length,
+/// the remesher's target length): the boundary's turn at a vertex is measured between the
+/// chords to the points `scale` back and ahead along the boundary (or to the nearest vertex
+/// where the boundary meets another feature edge, if closer), and a vertex is a corner when
+/// that turn exceeds `corner_angle_deg` and no vertex within `scale` along the boundary turns
+/// more (ties: the lower index). Per input edge a scan's boundary zig-zags by a right angle
+/// at almost every vertex; at the scale of the output only its real corners stand out, and a
+/// bend narrower than the scale (a blade's end, two close corners) becomes one corner.
+/// Vertices elsewhere keep the per-vertex rule of [`build_chains`].
+pub fn mark_boundary_corners(
+    mesh: &TriMesh,
+    fe: &mut FeatureEdges,
+    scale: f64,
+    corner_angle_deg: f64,
+) {
+    let topo = mesh.topology();
+    let nv = mesh.n_vertices();
+    // The two boundary neighbours of each vertex inside a boundary (no other feature edge).
+    // The walks below stop at every other vertex, so `nbr` is read only where it is whole.
+    let mut degree = vec![0u32; nv];
+    let mut nbr = vec![[u32::MAX; 2]; nv];
+    for (e, &[a, b]) in topo.edges.iter().enumerate() {
+        if !fe.is_feature[e] {
+            continue;
+        }
+        let boundary = topo.is_boundary_edge(e as u32);
+        for (v, w) in [(a, b), (b, a)] {
+            let d = &mut degree[v as usize];
+            if boundary && *d < 2 {
+                nbr[v as usize][*d as usize] = w;
+            }
+            // Other feature edges count three, so that such vertices never pass as inside.
+            *d += if boundary { 1 } else { 3 };
+        }
+    }
+    let inside = |v: u32| degree[v as usize] == 2;
+    let p = |v: u32| mesh.positions[v as usize];
+    // From `v` towards its neighbour `first`: the point at arc length `scale`, and the
+    // vertices passed before it (inside the boundary, `v` excluded), with their arc lengths.
+    let walk = |v: u32, first: u32, passed: &mut Vec<u32>| -> V3 {
+        passed.clear();
+        let (mut prev, mut cur, mut s) = (v, first, 0.0);
+        loop {
+            let len = vec3::dist(p(prev), p(cur));
+            if s + len >= scale {
+                let t = if len > 0.0 { (scale - s) / len } else { 1.0 };
+                return vec3::lerp(p(prev), p(cur), t);
+            }
+            s += len;
+            if cur == v || !inside(cur) {
+                return p(cur);
+            }
+            passed.push(cur);
+            let [x, y] = nbr[cur as usize];
+            (prev, cur) = (cur, if x == prev { y } else { x });
+        }
+    };
+    // Cosine of the turn at scale (1 = straight) of every vertex inside a boundary.
+    let mut passed = Vec::new();
+    let cos_turn: Vec<f64> = (0..nv as u32)
+        .map(|v| {
+            if !inside(v) {
+                return 1.0;
+            }
+            let [x, y] = nbr[v as usize];
+            let back = walk(v, x, &mut passed);
+            let ahead = walk(v, y, &mut passed);
+            let (d0, d1) = (vec3::sub(p(v), back), vec3::sub(ahead, p(v)));
+            let l = vec3::norm(d0) * vec3::norm(d1);
+            if l > 0.0 {
+                vec3::dot(d0, d1) / l
+            } else {
+                1.0
+            }
+        })
+        .collect();
+    let cos_corner = corner_angle_deg.to_radians().cos();
+    let mut corner = vec![false; nv];
+    for v in 0..nv as u32 {
+        let c = cos_turn[v as usize];
+        if !inside(v) || !(c < cos_corner) {
+            continue;
+        }
+        let sharper = |w: u32| {
+            let cw = cos_turn[w as usize];
+            cw < c || (cw == c && w < v)
+        };
+        let [x, y] = nbr[v as usize];
+        let mut beaten = false;
+        for first in [x, y] {
+            walk(v, first, &mut passed);
+            beaten |= passed.iter().any(|&w| w != v && sharper(w));
+        }
+        corner[v as usize] = !beaten;
+    }
+    fe.boundary_corner = corner;
 }
 
 /// Splits the feature edges into chains; `corner_angle_deg` is the turning angle above which a
@@ -489,6 +673,12 @@ pub fn build_chains(mesh: &TriMesh, fe: &FeatureEdges, corner_angle_deg: f64) ->
                     Some(Some((_, cos))) => *cos < cos_corner,
                     _ => false,
                 },
+                2 if !fe.boundary_corner.is_empty()
+                    && topo.is_boundary_edge(es[0])
+                    && topo.is_boundary_edge(es[1]) =>
+                {
+                    fe.boundary_corner[v as usize]
+                }
                 2 => {
                     let (x, y) = (other(es[0], v), other(es[1], v));
                     let d1 = vec3::normalize(vec3::sub(p(v), p(x)));
@@ -649,12 +839,19 @@ pub fn build_chains(mesh: &TriMesh, fe: &FeatureEdges, corner_angle_deg: f64) ->
             }
         }
     }
+    let mut on_boundary = vec![false; points.len()];
+    for (e, &c) in edge_chain.iter().enumerate() {
+        if c != u32::MAX && topo.is_boundary_edge(e as u32) {
+            on_boundary[c as usize] = true;
+        }
+    }
     Chains {
         is_corner,
         vertex_chain,
         edge_chain,
         points,
         vertex_param,
+        on_boundary,
         closed,
         from_curves,
     }

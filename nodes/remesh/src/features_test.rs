@@ -182,3 +182,81 @@ fn a_trimmed_end_next_to_a_network_vertex_is_trimmed_to_it() {
     );
     assert!(chains.is_corner[10 * 21 + 12]); // (0.6, 0.5)
 }
+
+/// `unit_grid(n)` below a staircase: column i keeps the rows j < n/2 + (i mod 2) (a right
+/// angle at every vertex of the top boundary). Unused vertices stay (they carry no edge).
+fn staircase(n: u32) -> TriMesh {
+    let grid = unit_grid(n);
+    let tri = (0..n)
+        .flat_map(|j| (0..n).map(move |i| (i, j)))
+        .filter(|&(i, j)| j < n / 2 + i % 2)
+        .flat_map(|(i, j)| {
+            let f = 2 * (j * n + i) as usize;
+            [grid.triangles[f], grid.triangles[f + 1]]
+        })
+        .collect();
+    TriMesh::new(grid.positions.clone(), tri)
+}
+
+#[test]
+fn boundary_corners_are_found_at_the_scale() {
+    let n = 48;
+    let mesh = staircase(n);
+    let proj = Projector::new(&mesh);
+    let mut fe = mark_features(&mesh, None, None, &proj).unwrap();
+    let corners_at = |fe: &FeatureEdges| -> Vec<V3> {
+        let chains = build_chains(&mesh, fe, 60.0);
+        (0..mesh.n_vertices())
+            .filter(|&v| chains.is_corner[v])
+            .map(|v| mesh.positions[v])
+            .collect()
+    };
+    // Per vertex, every step of the staircase turns by 90°: 96 corners on top, 4 below.
+    assert_eq!(corners_at(&fe).len(), 2 * n as usize + 2);
+    // At the scale of ten cells only the region's four corners turn by more than 60°: one
+    // vertex each, the sharpest turn at that scale, which on the steps may lie a step away.
+    mark_boundary_corners(&mesh, &mut fe, 10.0 / n as f64, 60.0);
+    let top = (n / 2 + 1) as f64 / n as f64;
+    let found = corners_at(&fe);
+    assert_eq!(found.len(), 4, "{found:?}");
+    let cell = 1.0 / n as f64;
+    for (c, f) in [
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [0.0, 0.5, 0.0],
+        [1.0, top, 0.0],
+    ]
+    .iter()
+    .zip(&found)
+    {
+        assert!(
+            vec3::dist(*c, *f) < 1.5 * cell,
+            "corner {c:?} found at {f:?}"
+        );
+    }
+    // At the scale of one cell every step stands out again.
+    mark_boundary_corners(&mesh, &mut fe, 0.9 / n as f64, 60.0);
+    assert_eq!(corners_at(&fe).len(), 2 * n as usize + 2);
+}
+
+#[test]
+fn a_curve_along_a_ragged_boundary_follows_it() {
+    // The staircase's top steps at every cell, so the straight edge path between two of its
+    // vertices on the same row cuts through the inside, and the way along the boundary is
+    // twice as long but never farther than a cell from the segment: the curve stands for the
+    // boundary and takes its edges (which are features anyway), adding none inside.
+    let n = 48;
+    let mesh = staircase(n);
+    let at = |i: u32, j: u32| [i as f64 / n as f64, j as f64 / n as f64, 0.0];
+    let proj = Projector::new(&mesh);
+    let along = FeatureCurveNetwork::from_polylines(&[at(4, 24), at(16, 24)], &[(&[0, 1], false)]);
+    let fe = mark_features(&mesh, None, Some(&along), &proj).unwrap();
+    assert_eq!(fe.from_curves, 0);
+    assert_eq!(fe.count(), mesh.topology().boundary_edge_count());
+    // A curve from the left side to the bottom across the corner at the origin: the way
+    // along the boundary bends away from it (half its length at the corner), so it stays a
+    // curve of inside edges.
+    let across = FeatureCurveNetwork::from_polylines(&[at(0, 8), at(8, 0)], &[(&[0, 1], false)]);
+    let fe = mark_features(&mesh, None, Some(&across), &proj).unwrap();
+    assert!(fe.from_curves >= 8, "{} curve edges", fe.from_curves);
+}

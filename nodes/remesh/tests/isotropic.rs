@@ -577,6 +577,16 @@ fn bad_input_gives_clear_errors() {
     );
 
     let bad = IsotropicParams {
+        boundary_tolerance: 1.5,
+        ..abs(0.2)
+    };
+    let e = isotropic(&sphere, None, &bad, Par::Seq).unwrap_err();
+    assert!(
+        matches!(&e, RemeshError::Params(m) if m.contains("boundary_tolerance")),
+        "{e}"
+    );
+
+    let bad = IsotropicParams {
         feature_grading: -1.0,
         ..abs(0.2)
     };
@@ -660,6 +670,7 @@ fn cylinder_rims_keep_their_bends_exactly() {
     let l = 0.1;
     let params = IsotropicParams {
         feature_tolerance: 1e-9,
+        boundary_tolerance: 1e-9,
         ..abs(l)
     };
     let out = isotropic(&input, None, &params, Par::Rayon).unwrap();
@@ -786,6 +797,7 @@ fn feature_grading_refines_along_dense_features_only() {
     let rim_edge = 2.0 * (std::f64::consts::PI / n as f64).sin();
     let base = IsotropicParams {
         feature_tolerance: 1e-9,
+        boundary_tolerance: 1e-9,
         ..abs(l)
     };
     let graded = IsotropicParams {
@@ -1702,4 +1714,219 @@ fn far_points_out_of_reach_are_pulled_partway() {
     assert!(partway >= 1.0, "no partial pull: {partway}");
     let lo = min_angle_deg(&r.mesh);
     assert!(lo >= 30.0, "min angle {lo:.2}°");
+}
+
+/// The cells of a flat n × n grid over [0, 1]² below a staircase: column i keeps the rows
+/// j < n/2 + (i mod 2), so the top boundary zig-zags by one cell (1/n) at every column, with a
+/// right angle at every vertex of it. Unused grid vertices are left out.
+fn staircase(n: usize) -> TriMesh {
+    let full = grid(n, n, |i, j| [i as f64 / n as f64, j as f64 / n as f64, 0.0]);
+    let tri: Vec<[u32; 3]> = (0..n)
+        .flat_map(|j| (0..n).map(move |i| (i, j)))
+        .filter(|&(i, j)| j < n / 2 + i % 2)
+        .flat_map(|(i, j)| {
+            let f = 2 * (j * n + i);
+            [full.triangles[f], full.triangles[f + 1]]
+        })
+        .collect();
+    let mut new_id = vec![u32::MAX; full.n_vertices()];
+    let mut pos = Vec::new();
+    let tri = tri
+        .iter()
+        .map(|t| {
+            t.map(|v| {
+                if new_id[v as usize] == u32::MAX {
+                    new_id[v as usize] = pos.len() as u32;
+                    pos.push(full.positions[v as usize]);
+                }
+                new_id[v as usize]
+            })
+        })
+        .collect();
+    TriMesh::new(pos, tri)
+}
+
+/// The boundary edges of `m` as point pairs.
+fn boundary_segments(m: &TriMesh) -> Vec<(V3, V3)> {
+    let topo = m.topology();
+    (0..topo.edges.len())
+        .filter(|&e| topo.is_boundary_edge(e as u32))
+        .map(|e| {
+            let [a, b] = topo.edges[e];
+            (m.positions[a as usize], m.positions[b as usize])
+        })
+        .collect()
+}
+
+fn dist_to_segments(p: V3, segs: &[(V3, V3)]) -> f64 {
+    segs.iter()
+        .map(|&(a, b)| dist_to_segment(p, a, b))
+        .fold(f64::INFINITY, f64::min)
+}
+
+#[test]
+fn a_ragged_boundary_is_resampled_at_the_target() {
+    // The staircase's top steps by 1/48 at every 1/48: at L = 0.1 that is a zig-zag of 0.21 L,
+    // within the default boundary tolerance of 0.25 L. Kept edge for edge (the old rule: a
+    // corner at every right angle), its 0.21 L edges leave triangles far below 30°; resampled
+    // at scale, the boundary gets edges of about L and every angle reaches 30°.
+    let n = 48;
+    let input = staircase(n);
+    let l = 0.1;
+    let out = isotropic(&input, None, &abs(l), Par::Rayon).unwrap();
+    let m = &out.mesh;
+    assert_manifold(m);
+    let amin = min_angle_deg(m);
+    assert!(amin >= 30.0, "min angle {amin}");
+    let segs_in = boundary_segments(&input);
+    let segs_out = boundary_segments(m);
+    // Every output boundary vertex lies on the input boundary, and the input boundary lies
+    // within the tolerance of the output's.
+    for &(a, _) in &segs_out {
+        let d = dist_to_segments(a, &segs_in);
+        assert!(
+            d < 1e-9,
+            "boundary vertex {a:?} is {d} off the input boundary"
+        );
+    }
+    for &(a, _) in &segs_in {
+        let d = dist_to_segments(a, &segs_out);
+        assert!(
+            d <= 0.25 * l + 1e-9,
+            "input boundary vertex {a:?} is {d} from the output's"
+        );
+    }
+    // About one edge per target length: the input's boundary has 4 + 2 · 24 + 48 + 24 + 24
+    // edges (perimeter about 3.5 including the steps), the output's some 30.
+    let perimeter: f64 = segs_out.iter().map(|&(a, b)| vec3::dist(a, b)).sum();
+    assert!(
+        segs_out.len() as f64 <= 1.5 * perimeter / l && segs_out.len() * 2 < segs_in.len() / 2,
+        "{} output boundary edges for a perimeter of {perimeter} (input {})",
+        segs_out.len(),
+        segs_in.len()
+    );
+    // The region's four corners stay, each as the vertex of sharpest turn at the scale of L
+    // (at the top, maybe a step away); the right-angle turns of the steps are not corners.
+    assert_eq!(out.report.num("feature_corners"), Some(4.0));
+    for c in [
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [0.0, 0.5, 0.0],
+        [1.0, (n / 2 + 1) as f64 / n as f64, 0.0],
+    ] {
+        let d = m
+            .positions
+            .iter()
+            .map(|&q| vec3::dist(q, c))
+            .fold(f64::INFINITY, f64::min);
+        assert!(
+            d < 1.5 / n as f64,
+            "corner {c:?} lost ({d} from the nearest vertex)"
+        );
+    }
+    // With the boundary kept as tightly as other features, the steps stay and so do the
+    // slivers beside them.
+    let tight = IsotropicParams {
+        boundary_tolerance: 0.002,
+        ..abs(l)
+    };
+    let kept = isotropic(&input, None, &tight, Par::Rayon).unwrap();
+    let a_tight = min_angle_deg(&kept.mesh);
+    assert!(a_tight < 30.0, "min angle with every step kept: {a_tight}");
+    assert!(boundary_segments(&kept.mesh).len() > 2 * segs_out.len());
+}
+
+#[test]
+fn boundary_resampling_is_the_same_at_any_thread_count() {
+    let input = staircase(40);
+    let a = isotropic(&input, None, &abs(0.08), Par::Seq).unwrap();
+    let b = isotropic(&input, None, &abs(0.08), Par::Rayon).unwrap();
+    assert_eq!(a.mesh.positions, b.mesh.positions);
+    assert_eq!(a.mesh.triangles, b.mesh.triangles);
+}
+
+/// A flat n × n grid over [0, 1]² with a crack along x = 1/2 from row `j0` to row `j1`: the
+/// vertices strictly between the crack's ends are doubled, the cells right of it use the
+/// copies, so the crack is a hole of zero width whose boundary runs up one side and back
+/// down the other.
+fn cracked_square(n: usize, j0: usize, j1: usize) -> TriMesh {
+    let full = grid(n, n, |i, j| [i as f64 / n as f64, j as f64 / n as f64, 0.0]);
+    let mut pos = full.positions.clone();
+    let id = |i: usize, j: usize| (j * (n + 1) + i) as u32;
+    let mut copy = std::collections::HashMap::new();
+    for j in j0 + 1..j1 {
+        pos.push(full.positions[id(n / 2, j) as usize]);
+        copy.insert(id(n / 2, j), pos.len() as u32 - 1);
+    }
+    let tri = (0..n)
+        .flat_map(|j| (0..n).map(move |i| (i, j)))
+        .flat_map(|(i, j)| {
+            let f = 2 * (j * n + i);
+            let right = i >= n / 2;
+            [full.triangles[f], full.triangles[f + 1]].map(|t| {
+                t.map(|v| {
+                    if right {
+                        *copy.get(&v).unwrap_or(&v)
+                    } else {
+                        v
+                    }
+                })
+            })
+        })
+        .collect();
+    TriMesh::new(pos, tri)
+}
+
+#[test]
+fn a_crack_keeps_its_two_sides_apart() {
+    // A crack of zero width, 0.6 L long: its two ends turn by 180°, one is a corner at the
+    // scale of L and the other not, so the crack is one boundary chain from that corner
+    // and back, folded at its middle. Both sides' vertices slide along it; at the same
+    // parameter from either end they are at the same place.
+    let n = 20;
+    let input = cracked_square(n, 8, 11);
+    assert_eq!(input.topology().boundary_edge_count(), 4 * n + 6);
+    let l = 0.25;
+    let out = isotropic(&input, None, &abs(l), Par::Rayon).unwrap();
+    let m = &out.mesh;
+    assert_manifold(m);
+    let topo = m.topology();
+    for &[a, b] in &topo.edges {
+        let d = vec3::dist(m.positions[a as usize], m.positions[b as usize]);
+        assert!(d > 0.1 * l, "edge {a}-{b} of length {d}");
+    }
+    let amin = min_angle_deg(m);
+    assert!(amin > 5.0, "min angle {amin}");
+}
+
+#[test]
+fn a_repaired_scan_keeps_its_boundary_vertices_apart() {
+    // The repaired Stanford bunny scan (pymeshfix) has boundaries that fold back on
+    // themselves where the repair split non-manifold vertices. Resampled within the
+    // boundary tolerance, a fold's two sides could take vertices at the same place, joined
+    // by an edge of length zero (before boundary slides kept their triangles' angles).
+    let path = format!(
+        "{}/../../../shared/data/meshes/scans/pymeshfix_StanfordBunny_scan.ply",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let options = crestflow_geom::io::LoadOptions {
+        repair: true,
+        ..Default::default()
+    };
+    let input = crestflow_geom::io::load_mesh(&path, &options).unwrap().mesh;
+    let params = IsotropicParams {
+        target: 0.01,
+        ..Default::default()
+    };
+    let out = isotropic(&input, None, &params, Par::Rayon).unwrap();
+    let m = &out.mesh;
+    assert_manifold(m);
+    let l = out.report.num("target_abs").unwrap();
+    let topo = m.topology();
+    let shortest = topo
+        .edges
+        .iter()
+        .map(|&[a, b]| vec3::dist(m.positions[a as usize], m.positions[b as usize]))
+        .fold(f64::INFINITY, f64::min);
+    assert!(shortest > 0.01 * l, "shortest edge {shortest} (L = {l})");
 }
