@@ -90,29 +90,26 @@ impl Chain {
     /// neighbours even when a short loop makes that the longer way); elsewhere
     /// [`Chain::interval`].
     pub fn interval_through(&self, a: f64, b: f64, s: f64) -> (f64, f64) {
-        if !self.closed {
-            return self.interval(a, b);
-        }
-        let [inner, outer] = self.arcs(a, b);
-        if self.inside(inner, s) {
-            inner
-        } else {
-            outer
-        }
+        self.arc_by(a, b, s, true)
     }
 
     /// The stretch between `a` and `b` that does not contain the parameter `s`: on a loop, the
     /// stretch an edge stands for, given a chain vertex off the edge; elsewhere
     /// [`Chain::interval`].
     pub fn interval_avoiding(&self, a: f64, b: f64, s: f64) -> (f64, f64) {
+        self.arc_by(a, b, s, false)
+    }
+
+    /// The way round a loop between `a` and `b` that contains `s` (`through`) or not.
+    fn arc_by(&self, a: f64, b: f64, s: f64, through: bool) -> (f64, f64) {
         if !self.closed {
             return self.interval(a, b);
         }
         let [inner, outer] = self.arcs(a, b);
-        if self.inside(inner, s) {
-            outer
-        } else {
+        if self.inside(inner, s) == through {
             inner
+        } else {
+            outer
         }
     }
 
