@@ -100,16 +100,20 @@ impl Chain {
         self.arc_by(a, b, s, false)
     }
 
-    /// The way round a loop between `a` and `b` that contains `s` (`through`) or not.
+    /// The way round a loop between `a` and `b` that contains `s` (`through`) or not; the
+    /// shorter one ([`Chain::interval`]) where `s` lies strictly inside neither (at `a` or
+    /// `b`: the parameters of a curve chain's vertices may repeat).
     fn arc_by(&self, a: f64, b: f64, s: f64, through: bool) -> (f64, f64) {
+        let short = self.interval(a, b);
         if !self.closed {
-            return self.interval(a, b);
+            return short;
         }
         let [inner, outer] = self.arcs(a, b);
-        if self.inside(inner, s) == through {
-            inner
-        } else {
-            outer
+        let long = if short == inner { outer } else { inner };
+        let (in_short, in_long) = (self.inside(short, s), self.inside(long, s));
+        match (through, in_short, in_long) {
+            (true, false, true) | (false, true, false) => long,
+            _ => short,
         }
     }
 

@@ -131,3 +131,13 @@ fn a_stretch_through_a_point_may_be_the_longer_way_round() {
     assert_eq!(e.interval_through(2.5, 0.5, 1.0), (0.5, 2.5));
     assert_eq!(e.interval_avoiding(2.5, 0.5, 1.0), (0.5, 2.5));
 }
+
+#[test]
+fn a_point_at_an_end_of_both_stretches_takes_the_shorter() {
+    // Curve chains repeat parameters: a vertex at its neighbour's parameter lies strictly
+    // inside neither way round, and gets the shorter one, as `interval` gives it.
+    let c = square();
+    assert_eq!(c.interval_through(0.5, 3.5, 0.5), (3.5, 4.5));
+    assert_eq!(c.interval_through(0.5, 3.5, 3.5), (3.5, 4.5));
+    assert_eq!(c.interval_avoiding(0.5, 3.5, 0.5), (3.5, 4.5));
+}

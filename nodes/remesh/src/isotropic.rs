@@ -1005,9 +1005,10 @@ impl State<'_> {
     fn stretch_params(&self, param: &[f64], c: u32, x: u32, y: u32, inner: f64) -> (f64, f64) {
         let total = self.chains[c as usize].total();
         let beyond = |other: u32| {
-            if self.role[other as usize] != Role::Chain(c) {
+            let so = param[other as usize];
+            if self.role[other as usize] != Role::Chain(c) || inner == so {
                 inner
-            } else if inner > param[other as usize] {
+            } else if inner > so {
                 total
             } else {
                 0.0
@@ -1030,11 +1031,15 @@ impl State<'_> {
             }
             let w = self.chain_neighbor(v, c, u);
             if w == NONE || self.role[w as usize] != Role::Chain(c) {
-                f64::NAN
-            } else if self.param[w as usize] > self.param[v as usize] {
+                return f64::NAN;
+            }
+            let (sw, sv) = (self.param[w as usize], self.param[v as usize]);
+            if sw > sv {
                 0.0
-            } else {
+            } else if sw < sv {
                 total
+            } else {
+                f64::NAN
             }
         };
         let sa = self.param_on(a, c, side(a, b));

@@ -1930,3 +1930,27 @@ fn a_repaired_scan_keeps_its_boundary_vertices_apart() {
         .fold(f64::INFINITY, f64::min);
     assert!(shortest > 0.01 * l, "shortest edge {shortest} (L = {l})");
 }
+
+#[test]
+fn curve_loops_around_small_holes_keep_their_vertices_apart() {
+    // trimesh_plate_holes at 2 %, scale conforming: its holes' rims are curve loops of a few
+    // output vertices, whose path vertices share parameters where they project onto one
+    // network vertex. A vertex whose parameter equals a neighbour's lies inside neither way
+    // round its loop; taking the longer one there slid rim vertices onto each other (edges of
+    // length zero in all three of plate_holes, pyvista_nut and trimesh_featuretype).
+    let input = shared_mesh("cad/trimesh_plate_holes.STL");
+    let (_, _, network) = conforming_sharp_edges(&input, 0.02, 0.02);
+    let out = isotropic(&input, Some(&network), &curves_only(0.02), Par::Rayon).unwrap();
+    let m = &out.mesh;
+    assert_manifold(m);
+    let l = out.report.num("target_abs").unwrap();
+    let shortest = m
+        .topology()
+        .edges
+        .iter()
+        .map(|&[a, b]| vec3::dist(m.positions[a as usize], m.positions[b as usize]))
+        .fold(f64::INFINITY, f64::min);
+    assert!(shortest > 0.05 * l, "shortest edge {shortest} (L = {l})");
+    let amin = min_angle_deg(m);
+    assert!(amin > 20.0, "min angle {amin}");
+}
