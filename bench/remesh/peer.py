@@ -121,6 +121,11 @@ def hausdorff(VA, FA, VB, FB):
 
 def _hausdorff(VA, FA, VB, FB):
     import pymeshlab
+    d = diag(VA)
+    # Vertices no face uses are not on the surface (a raw scan has hundreds): sampled as
+    # points they would be "far" from every output.
+    used, FA = np.unique(FA, return_inverse=True)
+    VA, FA = VA[used], FA.reshape(-1, 3)
     ms = pymeshlab.MeshSet()
     ms.add_mesh(pymeshlab.Mesh(vertex_matrix=VA, face_matrix=FA.astype(np.int32)), "in")
     ms.add_mesh(pymeshlab.Mesh(vertex_matrix=VB, face_matrix=FB.astype(np.int32)), "out")
@@ -128,7 +133,6 @@ def _hausdorff(VA, FA, VB, FB):
               maxdist=pymeshlab.PercentageValue(100.0))
     ab = ms.get_hausdorff_distance(sampledmesh=0, targetmesh=1, **kw)
     ba = ms.get_hausdorff_distance(sampledmesh=1, targetmesh=0, **kw)
-    d = diag(VA)
     return {"hausdorff_rel": max(ab["max"], ba["max"]) / d,
             "mean_dist_rel": (ab["mean"] + ba["mean"]) / 2 / d}
 
