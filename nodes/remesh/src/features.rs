@@ -546,7 +546,10 @@ pub struct Chains {
 /// chords to the points `scale` back and ahead along the boundary (or to the nearest vertex
 /// where the boundary meets another feature edge, if closer), and a vertex is a corner when
 /// that turn exceeds `corner_angle_deg` and no vertex within `scale` along the boundary turns
-/// more (ties: the lower index). Per input edge a scan's boundary zig-zags by a right angle
+/// more (ties: the lower index) and no corner by its feature edges (a crease or curve meeting
+/// the boundary) lies within `scale` along it: that one takes the bend's place, since two fixed
+/// vertices closer than the target would pin a needle (cgal_blade's rim wall, 0.025 L thick,
+/// ends at the boundary beside such a bend). Per input edge a scan's boundary zig-zags by a right angle
 /// at almost every vertex; at the scale of the output only its real corners stand out, and a
 /// bend narrower than the scale (a blade's end, two close corners) becomes one corner.
 /// Vertices elsewhere keep the per-vertex rule of [`build_chains`].
@@ -580,18 +583,19 @@ pub fn mark_boundary_corners(
     let p = |v: u32| mesh.positions[v as usize];
     // From `v` towards its neighbour `first`: the point at arc length `scale`, and the
     // vertices passed before it (inside the boundary, `v` excluded), with their arc lengths.
-    let walk = |v: u32, first: u32, passed: &mut Vec<u32>| -> V3 {
+    // Also whether the walk met such a vertex (a corner by its feature edges) before `scale`.
+    let walk = |v: u32, first: u32, passed: &mut Vec<u32>| -> (V3, bool) {
         passed.clear();
         let (mut prev, mut cur, mut s) = (v, first, 0.0);
         loop {
             let len = vec3::dist(p(prev), p(cur));
             if s + len >= scale {
                 let t = if len > 0.0 { (scale - s) / len } else { 1.0 };
-                return vec3::lerp(p(prev), p(cur), t);
+                return (vec3::lerp(p(prev), p(cur), t), false);
             }
             s += len;
             if cur == v || !inside(cur) {
-                return p(cur);
+                return (p(cur), cur != v);
             }
             passed.push(cur);
             let [x, y] = nbr[cur as usize];
@@ -606,8 +610,8 @@ pub fn mark_boundary_corners(
                 return 1.0;
             }
             let [x, y] = nbr[v as usize];
-            let back = walk(v, x, &mut passed);
-            let ahead = walk(v, y, &mut passed);
+            let (back, _) = walk(v, x, &mut passed);
+            let (ahead, _) = walk(v, y, &mut passed);
             let (d0, d1) = (vec3::sub(p(v), back), vec3::sub(ahead, p(v)));
             let l = vec3::norm(d0) * vec3::norm(d1);
             if l > 0.0 {
@@ -631,8 +635,9 @@ pub fn mark_boundary_corners(
         let [x, y] = nbr[v as usize];
         let mut beaten = false;
         for first in [x, y] {
-            walk(v, first, &mut passed);
-            beaten |= passed.iter().any(|&w| w != v && sharper(w));
+            // A corner by its feature edges within the scale stands for this bend.
+            let (_, junction) = walk(v, first, &mut passed);
+            beaten |= junction || passed.iter().any(|&w| w != v && sharper(w));
         }
         corner[v as usize] = !beaten;
     }
@@ -855,6 +860,80 @@ pub fn build_chains(mesh: &TriMesh, fe: &FeatureEdges, corner_angle_deg: f64) ->
         closed,
         from_curves,
     }
+}
+
+/// Curve chains that stand for a boundary: both ends on the boundary and their polyline
+/// (sampled at steps of `tol` / 2) nowhere farther than `tol` from the input's boundary
+/// edges. Their edges stop being features; the boundary between their ends is kept anyway,
+/// resampled within the same tolerance, and the two would meet: a curve vertex slid onto the
+/// network's chord between two corners lies on the boundary edge that joins them once the
+/// boundary is resampled (a flat triangle). Then the boundary corners are found again at
+/// `scale` and the chains rebuilt. Returns the chains and how many edges were dropped.
+pub fn drop_curves_along_boundaries(
+    mesh: &TriMesh,
+    fe: &mut FeatureEdges,
+    chains: Chains,
+    tol: f64,
+    scale: f64,
+    corner_angle_deg: f64,
+) -> (Chains, usize) {
+    let topo = mesh.topology();
+    let boundary: Vec<(V3, V3)> = (0..topo.edges.len())
+        .filter(|&e| topo.is_boundary_edge(e as u32))
+        .map(|e| {
+            let [a, b] = topo.edges[e];
+            (mesh.positions[a as usize], mesh.positions[b as usize])
+        })
+        .collect();
+    if boundary.is_empty() || !(tol > 0.0) {
+        return (chains, 0);
+    }
+    let near_boundary = |p: V3| {
+        boundary
+            .iter()
+            .any(|&(a, b)| vec3::dist(p, closest_on_segment(p, a, b).0) <= tol)
+    };
+    // The end vertices of each chain (the corners its edges reach).
+    let mut ends: Vec<Vec<u32>> = vec![Vec::new(); chains.points.len()];
+    for (e, &c) in chains.edge_chain.iter().enumerate() {
+        if c == u32::MAX {
+            continue;
+        }
+        for v in topo.edges[e] {
+            if chains.is_corner[v as usize] && !ends[c as usize].contains(&v) {
+                ends[c as usize].push(v);
+            }
+        }
+    }
+    let mut dropped = 0;
+    for (c, ends) in ends.iter().enumerate() {
+        let on_boundary_ends =
+            !ends.is_empty() && ends.iter().all(|&v| topo.is_boundary_vertex[v as usize]);
+        if !chains.from_curves[c] || chains.closed[c] || !on_boundary_ends {
+            continue;
+        }
+        let pts = &chains.points[c];
+        let along = pts.windows(2).all(|w| {
+            let steps = (2.0 * vec3::dist(w[0], w[1]) / tol).ceil().max(1.0) as usize;
+            (0..=steps).all(|i| near_boundary(vec3::lerp(w[0], w[1], i as f64 / steps as f64)))
+        });
+        if !along {
+            continue;
+        }
+        for (e, &ce) in chains.edge_chain.iter().enumerate() {
+            if ce == c as u32 && fe.from_curve[e] {
+                fe.is_feature[e] = false;
+                fe.from_curve[e] = false;
+                fe.from_curves -= 1;
+                dropped += 1;
+            }
+        }
+    }
+    if dropped == 0 {
+        return (chains, 0);
+    }
+    mark_boundary_corners(mesh, fe, scale, corner_angle_deg);
+    (build_chains(mesh, fe, corner_angle_deg), dropped)
 }
 
 /// Drops chains made of sharp edges only that end freely at both ends (a feature endpoint, not

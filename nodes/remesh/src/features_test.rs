@@ -260,3 +260,70 @@ fn a_curve_along_a_ragged_boundary_follows_it() {
     let fe = mark_features(&mesh, None, Some(&across), &proj).unwrap();
     assert!(fe.from_curves >= 8, "{} curve edges", fe.from_curves);
 }
+
+#[test]
+fn a_crease_end_takes_the_place_of_a_boundary_corner_within_the_scale() {
+    // A curve meets the staircase's bottom side three cells from the corner at the origin:
+    // that end is a corner by its feature edges, and at the scale of ten cells it stands for
+    // the origin's bend too (two fixed vertices closer than L would pin a needle). The corner
+    // at (1, 0), far from it, stays.
+    let n = 48;
+    let mesh = staircase(n);
+    let at = |i: u32, j: u32| [i as f64 / n as f64, j as f64 / n as f64, 0.0];
+    let net = FeatureCurveNetwork::from_polylines(&[at(3, 10), at(3, 0)], &[(&[0, 1], false)]);
+    let proj = Projector::new(&mesh);
+    let mut fe = mark_features(&mesh, None, Some(&net), &proj).unwrap();
+    mark_boundary_corners(&mesh, &mut fe, 10.0 / n as f64, 60.0);
+    let chains = build_chains(&mesh, &fe, 60.0);
+    let corner_at = |p: V3| {
+        let v = mesh.positions.iter().position(|&q| q == p).unwrap();
+        chains.is_corner[v]
+    };
+    assert!(corner_at(at(3, 0)));
+    assert!(!corner_at(at(0, 0)));
+    assert!(corner_at(at(n, 0)));
+}
+
+#[test]
+fn curves_along_a_boundary_give_way_to_it() {
+    // A curve chain one cell below the staircase's lowest top row, from its left side to its
+    // right side: both ends on the boundary and every point of it within two cells of the
+    // boundary. With a tolerance of 2.5 cells it is dropped (its edges stop being features,
+    // the chains are rebuilt without it); with half a cell it stays.
+    let n = 48;
+    let mesh = staircase(n);
+    let topo = mesh.topology();
+    let proj = Projector::new(&mesh);
+    let row = n / 2 - 1;
+    let with_curve = || {
+        let mut fe = mark_features(&mesh, None, None, &proj).unwrap();
+        for (e, &[a, b]) in topo.edges.iter().enumerate() {
+            if a / (n + 1) == row && b / (n + 1) == row {
+                fe.is_feature[e] = true;
+                fe.from_curve[e] = true;
+                fe.from_curves += 1;
+            }
+        }
+        fe
+    };
+    let cell = 1.0 / n as f64;
+    let mut fe = with_curve();
+    let chains = build_chains(&mesh, &fe, 60.0);
+    assert_eq!(chains.from_curves.iter().filter(|&&c| c).count(), 1);
+    let (kept, dropped) = drop_curves_along_boundaries(
+        &mesh,
+        &mut fe,
+        chains.clone(),
+        0.5 * cell,
+        10.0 * cell,
+        60.0,
+    );
+    assert_eq!(dropped, 0);
+    assert_eq!(kept.from_curves.iter().filter(|&&c| c).count(), 1);
+    let (rebuilt, dropped) =
+        drop_curves_along_boundaries(&mesh, &mut fe, chains, 2.5 * cell, 10.0 * cell, 60.0);
+    assert_eq!(dropped, n as usize);
+    assert_eq!(fe.from_curves, 0);
+    assert!(rebuilt.from_curves.iter().all(|&c| !c));
+    assert_eq!(fe.count(), topo.boundary_edge_count());
+}

@@ -112,6 +112,7 @@
 //! Boundary edges are features, so boundaries are preserved, but not edge for edge: a boundary
 //! chain's tolerance is `boundary_tolerance` (default 0.25 L), and a boundary vertex is a corner
 //! only where the boundary turns by more than `corner_angle_deg` at the scale of L
+//! and not within L of a corner by its feature edges
 //! ([`crate::features::mark_boundary_corners`]), so a scan's ragged boundary, which turns by a
 //! right angle at nearly every input vertex, is resampled at the target length
 //! (pymeshlab_face000_rangemap at 2 %, scale conforming: 3,808 output boundary edges before,
@@ -120,7 +121,11 @@
 //! boundary that folds back on itself (a crack the repair of a non-manifold mesh leaves) would
 //! otherwise bring its two sides' vertices together. On a loop of few vertices the stretch a
 //! vertex slides along is the one through it, even when that is the longer way round
-//! ([`Chain::interval_through`]). How curves become mesh edges is in
+//! ([`Chain::interval_through`]). Curve chains that stand for a boundary (both ends on it, every
+//! point within `boundary_tolerance` · L of it: the boundaries in a network of sharp edges) give
+//! way to it ([`crate::features::drop_curves_along_boundaries`], report
+//! `curve_edges_along_boundaries`): kept beside the resampled boundary, a curve vertex slid
+//! onto the boundary edge between two corners. How curves become mesh edges is in
 //! [`crate::features`]; sharp-edge chains that end freely at both ends and are shorter than
 //! `min_feature_length` target lengths are dropped (a feature below the scale, thesis §4.3).
 //! Tips narrower than L and corners of the part where creases meet ([`crate::tips`]) stay
@@ -158,8 +163,8 @@ use crestflow_geom::{FeatureCurveNetwork, TriMesh};
 
 use crate::chain::Chain;
 use crate::features::{
-    build_chains, mark_boundary_corners, mark_features, prune_short_sharp_chains,
-    trim_curve_ends_near, FeatureError,
+    build_chains, drop_curves_along_boundaries, mark_boundary_corners, mark_features,
+    prune_short_sharp_chains, trim_curve_ends_near, FeatureError,
 };
 use crate::project::Projector;
 use crate::tips::{clear_of_fixed, part_corners, tip_vertices};
@@ -529,6 +534,16 @@ fn isotropic_with(
         params.min_feature_length * l,
         params.corner_angle_deg,
     );
+    // Curves that stand for a boundary give way to it (the boundary is resampled within the
+    // same tolerance).
+    let (chains, curve_edges_along_boundaries) = drop_curves_along_boundaries(
+        mesh,
+        &mut fe,
+        chains,
+        params.boundary_tolerance * l,
+        l,
+        params.corner_angle_deg,
+    );
     let topo = mesh.topology();
     // Tips narrower than the target become fixed vertices (see `tips`), unless they are
     // feature vertices already. Curves ending beside one give up their end to it; a tip
@@ -712,6 +727,7 @@ fn isotropic_with(
         .set("feature_edges_pruned", fe.pruned)
         .set("feature_edges_trimmed", fe.trimmed)
         .set("feature_edges_boundary", fe.boundary)
+        .set("curve_edges_along_boundaries", curve_edges_along_boundaries)
         .set("feature_edges_from_curves", fe.from_curves)
         .set("feature_segments_unjoined", fe.segments_unjoined)
         .set("feature_edges_out", tagged)

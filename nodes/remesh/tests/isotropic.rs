@@ -1954,3 +1954,28 @@ fn curve_loops_around_small_holes_keep_their_vertices_apart() {
     let amin = min_angle_deg(m);
     assert!(amin > 20.0, "min angle {amin}");
 }
+
+#[test]
+fn a_range_scan_remeshed_at_scale_has_no_flat_triangles() {
+    // pymeshlab_face000_rangemap, scale conforming at 1 %: the network of its sharp edges
+    // and boundaries runs along its ragged boundary, in places one triangle inside it. Kept
+    // beside the resampled boundary, such a curve left an inner vertex on a boundary edge
+    // (flat triangles) once the crease ends took the place of nearby boundary corners;
+    // curves within the boundary tolerance of the boundary now give way to it.
+    let path = format!(
+        "{}/../../../shared/data/meshes/scans/pymeshlab_face000_rangemap.ply",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let options = crestflow_geom::io::LoadOptions {
+        repair: true,
+        ..Default::default()
+    };
+    let input = crestflow_geom::io::load_mesh(&path, &options).unwrap().mesh;
+    let (_, _, network) = conforming_sharp_edges(&input, 0.01, 0.01);
+    let out = isotropic(&input, Some(&network), &curves_only(0.01), Par::Rayon).unwrap();
+    let m = &out.mesh;
+    assert_manifold(m);
+    let amin = min_angle_deg(m);
+    assert!(amin > 5.0, "min angle {amin}");
+    assert!(out.report.num("curve_edges_along_boundaries").unwrap() > 0.0);
+}
