@@ -618,6 +618,23 @@ fn shared_mesh(rel: &str) -> TriMesh {
     }
 }
 
+/// A mesh of `../shared/data/meshes`, loaded with `repair: true` (non-manifold edges and
+/// vertices split).
+fn shared_mesh_repaired(rel: &str) -> TriMesh {
+    let path = format!(
+        "{}/../../../shared/data/meshes/{rel}",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let options = crestflow_geom::io::LoadOptions {
+        repair: true,
+        ..Default::default()
+    };
+    match crestflow_geom::io::load_mesh(&path, &options) {
+        Ok(loaded) => loaded.mesh,
+        Err(e) => panic!("cannot read {path}: {e}"),
+    }
+}
+
 #[test]
 fn fandisk_keeps_its_sharp_edges() {
     let input = shared_mesh("cad/cgal_fandisk.off");
@@ -1905,15 +1922,7 @@ fn a_repaired_scan_keeps_its_boundary_vertices_apart() {
     // themselves where the repair split non-manifold vertices. Resampled within the
     // boundary tolerance, a fold's two sides could take vertices at the same place, joined
     // by an edge of length zero (before boundary slides kept their triangles' angles).
-    let path = format!(
-        "{}/../../../shared/data/meshes/scans/pymeshfix_StanfordBunny_scan.ply",
-        env!("CARGO_MANIFEST_DIR")
-    );
-    let options = crestflow_geom::io::LoadOptions {
-        repair: true,
-        ..Default::default()
-    };
-    let input = crestflow_geom::io::load_mesh(&path, &options).unwrap().mesh;
+    let input = shared_mesh_repaired("scans/pymeshfix_StanfordBunny_scan.ply");
     let params = IsotropicParams {
         target: 0.01,
         ..Default::default()
@@ -1962,15 +1971,7 @@ fn a_range_scan_remeshed_at_scale_has_no_flat_triangles() {
     // beside the resampled boundary, such a curve left an inner vertex on a boundary edge
     // (flat triangles) once the crease ends took the place of nearby boundary corners;
     // curves within the boundary tolerance of the boundary now give way to it.
-    let path = format!(
-        "{}/../../../shared/data/meshes/scans/pymeshlab_face000_rangemap.ply",
-        env!("CARGO_MANIFEST_DIR")
-    );
-    let options = crestflow_geom::io::LoadOptions {
-        repair: true,
-        ..Default::default()
-    };
-    let input = crestflow_geom::io::load_mesh(&path, &options).unwrap().mesh;
+    let input = shared_mesh_repaired("scans/pymeshlab_face000_rangemap.ply");
     let (_, _, network) = conforming_sharp_edges(&input, 0.01, 0.01);
     let out = isotropic(&input, Some(&network), &curves_only(0.01), Par::Rayon).unwrap();
     let m = &out.mesh;
