@@ -618,6 +618,15 @@ fn shared_mesh(rel: &str) -> TriMesh {
     }
 }
 
+/// Length of the shortest edge of `m`.
+fn shortest_edge(m: &TriMesh) -> f64 {
+    m.topology()
+        .edges
+        .iter()
+        .map(|&[a, b]| vec3::dist(m.positions[a as usize], m.positions[b as usize]))
+        .fold(f64::INFINITY, f64::min)
+}
+
 /// A mesh of `../shared/data/meshes`, loaded with `repair: true` (non-manifold edges and
 /// vertices split).
 fn shared_mesh_repaired(rel: &str) -> TriMesh {
@@ -1907,11 +1916,8 @@ fn a_crack_keeps_its_two_sides_apart() {
     let out = isotropic(&input, None, &abs(l), Par::Rayon).unwrap();
     let m = &out.mesh;
     assert_manifold(m);
-    let topo = m.topology();
-    for &[a, b] in &topo.edges {
-        let d = vec3::dist(m.positions[a as usize], m.positions[b as usize]);
-        assert!(d > 0.1 * l, "edge {a}-{b} of length {d}");
-    }
+    let shortest = shortest_edge(m);
+    assert!(shortest > 0.1 * l, "shortest edge {shortest}");
     let amin = min_angle_deg(m);
     assert!(amin > 5.0, "min angle {amin}");
 }
@@ -1931,12 +1937,7 @@ fn a_repaired_scan_keeps_its_boundary_vertices_apart() {
     let m = &out.mesh;
     assert_manifold(m);
     let l = out.report.num("target_abs").unwrap();
-    let topo = m.topology();
-    let shortest = topo
-        .edges
-        .iter()
-        .map(|&[a, b]| vec3::dist(m.positions[a as usize], m.positions[b as usize]))
-        .fold(f64::INFINITY, f64::min);
+    let shortest = shortest_edge(m);
     assert!(shortest > 0.01 * l, "shortest edge {shortest} (L = {l})");
 }
 
@@ -1953,12 +1954,7 @@ fn curve_loops_around_small_holes_keep_their_vertices_apart() {
     let m = &out.mesh;
     assert_manifold(m);
     let l = out.report.num("target_abs").unwrap();
-    let shortest = m
-        .topology()
-        .edges
-        .iter()
-        .map(|&[a, b]| vec3::dist(m.positions[a as usize], m.positions[b as usize]))
-        .fold(f64::INFINITY, f64::min);
+    let shortest = shortest_edge(m);
     assert!(shortest > 0.05 * l, "shortest edge {shortest} (L = {l})");
     let amin = min_angle_deg(m);
     assert!(amin > 20.0, "min angle {amin}");
