@@ -863,7 +863,7 @@ pub fn build_chains(mesh: &TriMesh, fe: &FeatureEdges, corner_angle_deg: f64) ->
 }
 
 /// Curve chains that stand for a boundary: both ends on the boundary and their polyline
-/// (sampled at steps of `tol` / 2) nowhere farther than `tol` from the input's boundary
+/// (sampled every `tol` / 2, at most 64 points a segment) nowhere farther than `tol` from the input's boundary
 /// edges. Their edges stop being features; the boundary between their ends is kept anyway,
 /// resampled within the same tolerance, and the two would meet: a curve vertex slid onto the
 /// network's chord between two corners lies on the boundary edge that joins them once the
@@ -888,10 +888,45 @@ pub fn drop_curves_along_boundaries(
     if boundary.is_empty() || !(tol > 0.0) {
         return (chains, 0);
     }
+    // The boundary edges by the cells of points along them, the cells' side at least 2 tol
+    // (and a sixteenth of the longest boundary edge, which bounds the work when `tol` is tiny),
+    // the points at most 2 (side - tol) apart: a point within `tol` of an edge lies within
+    // `side` of one of those points, so it finds the edge in its own cell or a neighbouring one.
+    let longest = boundary
+        .iter()
+        .map(|&(a, b)| vec3::dist(a, b))
+        .fold(0.0, f64::max);
+    let side = (2.0 * tol).max(longest / 16.0);
+    let cell = |p: V3| p.map(|x| (x / side).floor() as i64);
+    let mut grid: HashMap<[i64; 3], Vec<u32>> = HashMap::new();
+    for (i, &(a, b)) in boundary.iter().enumerate() {
+        let steps = (vec3::dist(a, b) / (2.0 * (side - tol))).ceil().max(1.0) as usize;
+        let mut last = None;
+        for k in 0..=steps {
+            let c = cell(vec3::lerp(a, b, k as f64 / steps as f64));
+            if last != Some(c) {
+                let list = grid.entry(c).or_default();
+                if list.last() != Some(&(i as u32)) {
+                    list.push(i as u32);
+                }
+                last = Some(c);
+            }
+        }
+    }
     let near_boundary = |p: V3| {
-        boundary
-            .iter()
-            .any(|&(a, b)| vec3::dist(p, closest_on_segment(p, a, b).0) <= tol)
+        let [x, y, z] = cell(p);
+        (x - 1..=x + 1).any(|cx| {
+            (y - 1..=y + 1).any(|cy| {
+                (z - 1..=z + 1).any(|cz| {
+                    grid.get(&[cx, cy, cz]).is_some_and(|edges| {
+                        edges.iter().any(|&i| {
+                            let (a, b) = boundary[i as usize];
+                            vec3::dist(p, closest_on_segment(p, a, b).0) <= tol
+                        })
+                    })
+                })
+            })
+        })
     };
     // The end vertices of each chain (the corners its edges reach).
     let mut ends: Vec<Vec<u32>> = vec![Vec::new(); chains.points.len()];
@@ -905,7 +940,7 @@ pub fn drop_curves_along_boundaries(
             }
         }
     }
-    let mut dropped = 0;
+    let mut drop = vec![false; chains.points.len()];
     for (c, ends) in ends.iter().enumerate() {
         let on_boundary_ends =
             !ends.is_empty() && ends.iter().all(|&v| topo.is_boundary_vertex[v as usize]);
@@ -914,19 +949,20 @@ pub fn drop_curves_along_boundaries(
         }
         let pts = &chains.points[c];
         let along = pts.windows(2).all(|w| {
-            let steps = (2.0 * vec3::dist(w[0], w[1]) / tol).ceil().max(1.0) as usize;
+            // Every tol / 2, at most 64 points a segment (a tiny `tol` keeps the boundary as
+            // it is; no curve stands for it then).
+            let steps = (2.0 * vec3::dist(w[0], w[1]) / tol).ceil().clamp(1.0, 64.0) as usize;
             (0..=steps).all(|i| near_boundary(vec3::lerp(w[0], w[1], i as f64 / steps as f64)))
         });
-        if !along {
-            continue;
-        }
-        for (e, &ce) in chains.edge_chain.iter().enumerate() {
-            if ce == c as u32 && fe.from_curve[e] {
-                fe.is_feature[e] = false;
-                fe.from_curve[e] = false;
-                fe.from_curves -= 1;
-                dropped += 1;
-            }
+        drop[c] = along;
+    }
+    let mut dropped = 0;
+    for (e, &c) in chains.edge_chain.iter().enumerate() {
+        if c != u32::MAX && drop[c as usize] && fe.from_curve[e] {
+            fe.is_feature[e] = false;
+            fe.from_curve[e] = false;
+            fe.from_curves -= 1;
+            dropped += 1;
         }
     }
     if dropped == 0 {
