@@ -112,7 +112,7 @@ def pipeline(rng, repair):
         "corner_angle_deg: %r" % pick([60.0, 1.0, 179.0]),
         "smoothing_steps: %d" % pick([5, 0]),
         "feature_tolerance: %r" % pick([0.002, 0.0, 1.0]),
-        "boundary_tolerance: %r" % pick([0.25, 0.0, 1.0]),
+        "boundary_tolerance: %r" % pick([0.25, 0.0, 1.0, 1e-9]),
         "feature_grading: %r" % pick([0.0, 0.3, 3.0]),
         "max_vertices: 300000",
     ])
