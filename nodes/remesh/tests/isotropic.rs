@@ -1392,6 +1392,13 @@ fn conforming_sharp_edges(
     (sharp.report, c.stats.output_edges, c.network)
 }
 
+/// The pipeline of graphs/scale-remesh-cad.ron at `scale` (relative): sharp edges pruned and
+/// made scale conforming at it, then remeshing constrained by that network alone.
+fn conforming_remesh(input: &TriMesh, scale: f64) -> crestflow_nodes_remesh::RemeshOutput {
+    let (_, _, network) = conforming_sharp_edges(input, scale, scale);
+    isotropic(input, Some(&network), &curves_only(scale), Par::Rayon).unwrap()
+}
+
 /// Remeshing at `target` (relative) constrained by the curves alone (sharp-edge detection
 /// off).
 fn curves_only(target: f64) -> IsotropicParams {
@@ -1948,9 +1955,7 @@ fn curve_loops_around_small_holes_keep_their_vertices_apart() {
     // network vertex. A vertex whose parameter equals a neighbour's lies inside neither way
     // round its loop; taking the longer one there slid rim vertices onto each other (edges of
     // length zero in all three of plate_holes, pyvista_nut and trimesh_featuretype).
-    let input = shared_mesh("cad/trimesh_plate_holes.STL");
-    let (_, _, network) = conforming_sharp_edges(&input, 0.02, 0.02);
-    let out = isotropic(&input, Some(&network), &curves_only(0.02), Par::Rayon).unwrap();
+    let out = conforming_remesh(&shared_mesh("cad/trimesh_plate_holes.STL"), 0.02);
     let m = &out.mesh;
     assert_manifold(m);
     let l = out.report.num("target_abs").unwrap();
@@ -1967,9 +1972,10 @@ fn a_range_scan_remeshed_at_scale_has_no_flat_triangles() {
     // beside the resampled boundary, such a curve left an inner vertex on a boundary edge
     // (flat triangles) once the crease ends took the place of nearby boundary corners;
     // curves within the boundary tolerance of the boundary now give way to it.
-    let input = shared_mesh_repaired("scans/pymeshlab_face000_rangemap.ply");
-    let (_, _, network) = conforming_sharp_edges(&input, 0.01, 0.01);
-    let out = isotropic(&input, Some(&network), &curves_only(0.01), Par::Rayon).unwrap();
+    let out = conforming_remesh(
+        &shared_mesh_repaired("scans/pymeshlab_face000_rangemap.ply"),
+        0.01,
+    );
     let m = &out.mesh;
     assert_manifold(m);
     let amin = min_angle_deg(m);
