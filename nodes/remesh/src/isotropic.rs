@@ -947,22 +947,8 @@ impl State<'_> {
                 let t = self.he.tag(h);
                 // A feature edge is split at the middle of its stretch of chain.
                 let (mid, s) = if t != NONE {
-                    let c = &self.chains[t as usize];
-                    let (sa, sb) = self.edge_params(t, a, b);
-                    // On a loop the edge stands for the stretch away from a's other chain
-                    // neighbour (the longer way round on a loop of few vertices).
-                    let x = if c.is_closed() {
-                        self.chain_neighbor(a, t, b)
-                    } else {
-                        NONE
-                    };
-                    let (lo, hi) = if x != NONE && x != b {
-                        c.interval_avoiding(sa, sb, self.param[x as usize])
-                    } else {
-                        c.interval(sa, sb)
-                    };
-                    let s = c.wrap(0.5 * (lo + hi));
-                    (c.point_at(s), s)
+                    let s = self.stretch_middle(t, a, b);
+                    (self.chains[t as usize].point_at(s), s)
                 } else {
                     (
                         vec3::lerp(self.he.position(a), self.he.position(b), 0.5),
@@ -989,6 +975,25 @@ impl State<'_> {
             }
         }
         Ok(())
+    }
+
+    /// The parameter halfway along the stretch of chain `t` that its edge a → b stands for.
+    fn stretch_middle(&self, t: u32, a: u32, b: u32) -> f64 {
+        let c = &self.chains[t as usize];
+        let (sa, sb) = self.edge_params(t, a, b);
+        // On a loop the edge stands for the stretch away from a's other chain neighbour (the
+        // longer way round on a loop of few vertices).
+        let x = if c.is_closed() {
+            self.chain_neighbor(a, t, b)
+        } else {
+            NONE
+        };
+        let (lo, hi) = if x != NONE && x != b {
+            c.interval_avoiding(sa, sb, self.param[x as usize])
+        } else {
+            c.interval(sa, sb)
+        };
+        c.wrap(0.5 * (lo + hi))
     }
 
     /// Arc-length parameter of vertex `u` on chain `c` (an edge of `u` is tagged `c`): its own
@@ -1688,7 +1693,8 @@ impl State<'_> {
     ///
     /// Where no vertex qualifies, an edge of that face is split and its new vertex put on the
     /// point under the same conditions ([`State::split_toward`]; e.g. between chains of
-    /// feature vertices, or across a strip whose vertices all lie on its boundary).
+    /// feature vertices, or across a strip whose vertices all lie on its boundary); where
+    /// no other edge may be split, an edge of an inner feature chain.
     ///
     /// The second condition makes the far points a shrinking set: after the first pass (up
     /// to three; a moved vertex and its neighbours wait for the next) only the far points
@@ -2078,29 +2084,35 @@ impl State<'_> {
     /// Where no vertex may move onto the far input point `p` (input vertex `i`, closest to
     /// output face `f`), an edge of `f` is split and the new vertex put on `p`: the edges
     /// that are neither features nor on the boundary, the one whose middle is nearest first,
-    /// under the same conditions as a moved vertex (the four triangles turn by at most 60°
-    /// from the two they replace, their smallest angle is at least 30°, nothing near ends
-    /// up farther). A new triangle below that angle may instead be flipped with its
+    /// then those of inner feature chains (a chain edge is a chord of the crease it stands
+    /// for; where the crease bends tightly, the input bulges beyond it, and the new chain
+    /// vertex goes onto the crease), under the same conditions as a moved vertex (the four
+    /// triangles turn by at most 60° from the two they replace, their smallest angle is at
+    /// least 30°, nothing near ends up farther). A new triangle below that angle may instead be flipped with its
     /// neighbour across its side opposite the new vertex (the new vertex then reaches one
     /// vertex further; between two rows of fixed vertices that is the only way to keep the
     /// angles). Returns the new vertex.
     fn split_toward(&mut self, f: u32, blocked: &[bool], pull: &mut FarPull<'_>) -> Option<u32> {
         let p = pull.p;
-        let mut edges: Vec<(f64, u32)> = (0..3)
+        // Edges of inner feature chains after the others.
+        let mut edges: Vec<(bool, f64, u32)> = (0..3)
             .map(|k| 3 * f + k)
-            .filter(|&h| self.he.tag(h) == NONE && !self.he.is_boundary_edge(h))
+            .filter(|&h| {
+                let t = self.he.tag(h);
+                !self.he.is_boundary_edge(h) && (t == NONE || !self.boundary_chain[t as usize])
+            })
             .map(|h| {
                 let mid = vec3::lerp(
                     self.he.position(self.he.from(h)),
                     self.he.position(self.he.to(h)),
                     0.5,
                 );
-                (vec3::dist(mid, p), h)
+                (self.he.tag(h) != NONE, vec3::dist(mid, p), h)
             })
             .collect();
-        edges.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        edges.sort_by(|a, b| a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)).then(a.2.cmp(&b.2)));
         let p_face = pull.p_face;
-        for &(_, h) in &edges {
+        for &(_, _, h) in &edges {
             let Some(plan) = self.plan_split(h, p, blocked) else {
                 continue;
             };
@@ -2141,9 +2153,22 @@ impl State<'_> {
             ) {
                 continue;
             }
+            let t = self.he.tag(h);
+            // On a chain the new vertex takes the middle of the edge's stretch as its
+            // parameter; it sits on the input, off the chain's chord, and no later step
+            // slides it.
+            let s = if t != NONE {
+                self.stretch_middle(t, a, b)
+            } else {
+                0.0
+            };
             let m = self.he.split_edge(h, p);
-            self.role.push(Role::Free);
-            self.param.push(0.0);
+            self.role.push(if t != NONE {
+                Role::Chain(t)
+            } else {
+                Role::Free
+            });
+            self.param.push(s);
             self.hint.push(p_face);
             self.size
                 .push(0.5 * (self.size[a as usize] + self.size[b as usize]));
@@ -3423,7 +3448,7 @@ pub struct IsotropicNode;
 impl NodeKind for IsotropicNode {
     type Params = IsotropicParams;
     const KIND: &'static str = "remesh.isotropic";
-    const VERSION: u32 = 31;
+    const VERSION: u32 = 32;
     const DOC: &'static str = "Isotropic remeshing at a target edge length (Botsch & Kobbelt \
         2004, thesis §5.1.1): splits > 4/3 L, collapses < 4/5 L, valence-improving flips, \
         tangential relaxation (relaxation: Centroids, or Lloyd for Voronoi-cell centroids and \

@@ -1982,3 +1982,20 @@ fn a_range_scan_remeshed_at_scale_has_no_flat_triangles() {
     assert!(amin > 5.0, "min angle {amin}");
     assert!(out.report.num("curve_edges_along_boundaries").unwrap() > 0.0);
 }
+
+/// A scale-conforming curve chain is a chord of the crease it stands for: where a crease bends
+/// tightly (the camel's lip, the armadillo's claws), the input bulges beyond the chain edge.
+/// The far-point pull may split such an edge and put the new chain vertex on the far point.
+/// On cgal_camel at 1 % the farthest input vertex is 0.511 L from the output without that
+/// split.
+#[test]
+fn far_points_beyond_a_curve_chain_split_the_chain() {
+    let input = shared_mesh("organic/cgal_camel.off");
+    let r = conforming_remesh(&input, 0.01);
+    assert_manifold(&r.mesh);
+    let l = r.report.num("target_abs").unwrap();
+    let far = farthest_input_vertex(&input, &r.mesh) / l;
+    assert!(far <= 0.45, "an input vertex is {far:.3} L from the output");
+    let lo = min_angle_deg(&r.mesh);
+    assert!(lo >= 23.0, "min angle {lo:.2}°");
+}
