@@ -18,6 +18,7 @@
 # PEERS (default pymeshlab,gpytoolbox,cgal) picks the peers; PEERS="" grades ours only.
 # REPAIR=1 loads our inputs with `repair: true` (non-manifold meshes; bench/remesh/corpus.sh).
 # BOUNDARY_TOLERANCE=F sets remesh.isotropic's boundary_tolerance (default 0.25) in our runs.
+# SPECIAL_LONG=1 adds the conforming method with scale.conform's special_long_edges on.
 # bench/remesh/orientations.sh runs all this on six axis orders of each mesh.
 set -euo pipefail
 
@@ -52,6 +53,12 @@ fi
 if [ "${CONFORMING:-1}" != "0" ]; then
     cargo bench -q -p crestflow-nodes-remesh --bench remesh -- "$OUT" "${ABS[@]}" --targets "$TARGETS" ${EXTRA[@]+"${EXTRA[@]}"} \
         --conforming | tee -a "$OUT/ours.jsonl"
+    # SPECIAL_LONG=1 adds the conforming method with special long edges kept
+    # (crestflow_conforming_long).
+    if [ "${SPECIAL_LONG:-0}" != "0" ]; then
+        cargo bench -q -p crestflow-nodes-remesh --bench remesh -- "$OUT" "${ABS[@]}" --targets "$TARGETS" ${EXTRA[@]+"${EXTRA[@]}"} \
+            --conforming --special-long-edges | tee -a "$OUT/ours.jsonl"
+    fi
 fi
 # Relaxation towards Voronoi-cell centroids (`relaxation: Lloyd`) for the plain and the
 # conforming method (methods crestflow_lloyd, crestflow_conforming_lloyd); LLOYD=0 skips it.

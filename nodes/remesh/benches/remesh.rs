@@ -3,7 +3,7 @@
 //!   cargo bench -p crestflow-nodes-remesh --bench remesh -- OUT_DIR MESH... [--targets 1,2]
 //!       [--feature-tolerance 0.002] [--boundary-tolerance 0.25] [--iterations 10] [--smoothing-steps 5]
 //!       [--feature-grading 0] [--conforming [--sharp-angle 30]] [--lloyd] [--repeats 3]
-//!       [--repair]
+//!       [--repair] [--special-long-edges]
 //!
 //! With `--conforming` (method `crestflow_conforming`) the features are not every sharp edge
 //! but the scale-conforming subset of them: `remesh.sharp_edges` pruned at the target,
@@ -11,7 +11,9 @@
 //! only (its own sharp-edge detection off); the times cover all three steps. `--sharp-angle A`
 //! sets the dihedral angle above which an edge is sharp there (dense networks at 5°–15°; the
 //! method's name then ends in `_A`). With `--lloyd`
-//! the remeshing runs with `relaxation: Lloyd` and the method's name ends in `_lloyd`.
+//! the remeshing runs with `relaxation: Lloyd` and the method's name ends in `_lloyd`; with
+//! `--special-long-edges`, `scale.conform` keeps special long edges and the name ends in
+//! `_long`.
 //! `--repair` loads the meshes as `io.load_mesh` does with `repair: true` (non-manifold edges
 //! and vertices split, faces oriented coherently; `bench/remesh/corpus.sh`).
 //!
@@ -65,6 +67,8 @@ fn main() {
     args.retain(|a| a != "--lloyd");
     let repair = args.iter().any(|a| a == "--repair");
     args.retain(|a| a != "--repair");
+    let special_long = args.iter().any(|a| a == "--special-long-edges");
+    args.retain(|a| a != "--special-long-edges");
     if let Some(list) = take_value::<String>(&mut args, "--targets") {
         targets = list.split(',').filter_map(|t| t.parse().ok()).collect();
     }
@@ -116,6 +120,7 @@ fn main() {
             };
             let conform_params = ConformParams {
                 scale: pct / 100.0,
+                special_long_edges: special_long,
                 ..Default::default()
             };
             let mut times = Vec::new();
@@ -164,6 +169,11 @@ fn main() {
             };
             let method = if lloyd {
                 format!("{method}_lloyd")
+            } else {
+                method
+            };
+            let method = if special_long && conforming {
+                format!("{method}_long")
             } else {
                 method
             };

@@ -1,7 +1,10 @@
 //! `scale.check`: verifies that a feature curve network is scale conforming (thesis §4.3.2) and
 //! counts each kind of violation:
 //!
-//! - `short_edges`, `long_edges`: edge lengths outside S = [r_min, r_max];
+//! - `short_edges`, `long_edges`: edge lengths outside S = [r_min, r_max]; with
+//!   `special_long_edges: true`, an arc of one edge between r_max and 2 r_min (thesis
+//!   §4.3.3.2: no resampling into S can hold it) is counted as `special_long_edges` instead,
+//!   and is no violation;
 //! - `angle_violations`: two edges at a vertex whose angle is outside the representable
 //!   intervals ∪_k [k θ_min, k θ_max] (§4.3.2.1), including edges joined by a short edge;
 //! - `proximity_violations`: non-adjacent edges closer than r_min for which no triangulation
@@ -20,7 +23,7 @@ use crestflow_geom::vec3;
 use crestflow_geom::{FeatureCurveNetwork, TriMesh};
 
 use crate::conflicts::{find_conflicts, ConflictKind, Scale};
-use crate::conform::{absolute_scale, ScaleError};
+use crate::conform::{absolute_scale, special_long_edges, ScaleError};
 use crate::network::Graph;
 
 /// Parameters of `scale.check`.
@@ -35,6 +38,8 @@ pub struct CheckParams {
     pub aspect: f64,
     /// Fail the node when there is a violation (default false: only report).
     pub fail_on_violation: bool,
+    /// Accept special long edges (as `scale.conform` with the same parameter; default false).
+    pub special_long_edges: bool,
 }
 
 impl Default for CheckParams {
@@ -44,6 +49,7 @@ impl Default for CheckParams {
             relative: true,
             aspect: 1.5,
             fail_on_violation: false,
+            special_long_edges: false,
         }
     }
 }
@@ -65,7 +71,11 @@ pub struct CheckResult {
     pub edges: usize,
     pub curves: usize,
     pub short_edges: usize,
+    /// Edges longer than r_max, other than special long edges.
     pub long_edges: usize,
+    /// Arcs of one edge between r_max and 2 r_min (thesis §4.3.3.2: no resampling into S
+    /// exists); not violations.
+    pub special_long_edges: usize,
     pub angle_violations: usize,
     pub proximity_violations: usize,
     pub vertex_conflicts: usize,
@@ -109,6 +119,7 @@ impl CheckResult {
             .set("curves", self.curves)
             .set("short_edges", self.short_edges)
             .set("long_edges", self.long_edges)
+            .set("special_long_edges", self.special_long_edges)
             .set("angle_violations", self.angle_violations)
             .set("proximity_violations", self.proximity_violations)
             .set("vertex_conflicts", self.vertex_conflicts)
@@ -126,9 +137,14 @@ pub fn check_absolute(
     aspect: f64,
     par: Par,
 ) -> Result<CheckResult, ScaleError> {
-    let s = Scale::new(r_min, aspect);
+    check_at(net, &Scale::new(r_min, aspect), par)
+}
+
+/// Checks `net` at scale `s` (absolute; special long edges accepted when `s` allows them).
+pub fn check_at(net: &FeatureCurveNetwork, s: &Scale, par: Par) -> Result<CheckResult, ScaleError> {
+    let r_min = s.r_min;
     let g = Graph::from_network(net, false)?;
-    let conf = find_conflicts(&s, &g.pos, &g.edges, par);
+    let conf = find_conflicts(s, &g.pos, &g.edges, par);
     let mut r = CheckResult {
         r_min: s.r_min,
         r_max: s.r_max,
@@ -138,10 +154,12 @@ pub fn check_absolute(
         max_length_rel: 0.0,
         ..Default::default()
     };
-    for &[a, b] in &g.edges {
+    let special = special_long_edges(&g, s);
+    for (e, &[a, b]) in g.edges.iter().enumerate() {
         let l = vec3::dist(g.pos[a as usize], g.pos[b as usize]);
         r.short_edges += s.is_short(l) as usize;
-        r.long_edges += s.is_long(l) as usize;
+        r.long_edges += (s.is_long(l) && !special[e]) as usize;
+        r.special_long_edges += special[e] as usize;
         r.min_length_rel = r.min_length_rel.min(l / r_min);
         r.max_length_rel = r.max_length_rel.max(l / r_min);
     }
@@ -170,7 +188,8 @@ pub fn check(
         return Err(ScaleError::Params(format!("{}: {}", i.field, i.message)));
     }
     let r_min = absolute_scale(mesh, params.scale, params.relative)?;
-    let r = check_absolute(net, r_min, params.aspect, par)?;
+    let s = Scale::new(r_min, params.aspect).with_special_long(params.special_long_edges);
+    let r = check_at(net, &s, par)?;
     if params.fail_on_violation && r.violations() > 0 {
         return Err(ScaleError::NotConforming(r.summary()));
     }
@@ -183,7 +202,7 @@ pub struct CheckNode;
 impl NodeKind for CheckNode {
     type Params = CheckParams;
     const KIND: &'static str = "scale.check";
-    const VERSION: u32 = 1;
+    const VERSION: u32 = 2;
     const DOC: &'static str = "Verifies that a feature curve network is scale conforming: edge \
         lengths in [r_min, r_max], representable angles between adjacent edges, no non-adjacent \
         edges closer than r_min without a valid triangulation, no extraordinary vertices closer \

@@ -39,6 +39,8 @@ pub struct Scale {
     pub theta_max: f64,
     /// Disjoint, sorted feasible angle intervals in [0, π].
     pub angles: Vec<(f64, f64)>,
+    /// Whether special long edges are allowed ([`Scale::is_special_long`]; off by default).
+    pub special_long: bool,
 }
 
 impl Scale {
@@ -68,6 +70,14 @@ impl Scale {
             theta_min,
             theta_max,
             angles,
+            special_long: false,
+        }
+    }
+    /// The same scale with special long edges allowed or not.
+    pub fn with_special_long(self, on: bool) -> Scale {
+        Scale {
+            special_long: on,
+            ..self
         }
     }
     pub fn is_short(&self, len: f64) -> bool {
@@ -75,6 +85,12 @@ impl Scale {
     }
     pub fn is_long(&self, len: f64) -> bool {
         len > self.r_max * (1.0 + EPS)
+    }
+    /// Whether an edge of length `len` is a special *long* edge (thesis §4.3.3.2), when they
+    /// are allowed: longer than r_max but shorter than 2 r_min, so that it can be neither one
+    /// edge of S nor two.
+    pub fn is_special_long(&self, len: f64) -> bool {
+        self.special_long && self.is_long(len) && len < 2.0 * self.r_min * (1.0 - EPS)
     }
     pub fn in_range(&self, len: f64) -> bool {
         !self.is_short(len) && !self.is_long(len)
@@ -357,7 +373,24 @@ pub fn find_conflicts(s: &Scale, pos: &[V3], edges: &[[u32; 2]], par: Par) -> Co
         if !s.too_close(segment_distance(pa, pb, pc, pd)) {
             return None;
         }
-        Some(nonadjacent_conflict(s, pa, pb, pc, pd))
+        // A special long edge is remeshed as two halves: its middle becomes a vertex that
+        // the triangulations (c)/(d) must reach too.
+        let halves = |p: V3, q: V3, l: f64| {
+            if s.is_special_long(l) {
+                let m = vec3::lerp(p, q, 0.5);
+                vec![(p, m), (m, q)]
+            } else {
+                vec![(p, q)]
+            }
+        };
+        let (hi, hj) = (
+            halves(pa, pb, len[i as usize]),
+            halves(pc, pd, len[j as usize]),
+        );
+        Some(
+            hi.iter()
+                .any(|&(p, q)| hj.iter().any(|&(r, t)| nonadjacent_conflict(s, p, q, r, t))),
+        )
     });
     let mut near_resolved = 0;
     for (k, t) in tested.iter().enumerate() {

@@ -161,3 +161,25 @@ fn edges_across_a_short_edge_are_tested_by_angle() {
         .edge_pairs
         .contains(&(0, 2, ConflictKind::AngleAcrossShort)));
 }
+
+#[test]
+fn a_special_long_edges_middle_counts_in_the_proximity_test() {
+    // r_min 1: a special long edge (0,0)–(1.7,0) and a curve ending 0.6 above its middle.
+    // As one edge the pair is resolved (the triangle of the long edge and the curve's end has
+    // sides 1.7, 1.04, 1.04); the remesher puts a vertex at the middle, 0.6 from that end, so
+    // with special long edges the pair conflicts.
+    let pos = [
+        [0.0, 0.0, 0.0],
+        [1.7, 0.0, 0.0],
+        [0.85, 0.6, 0.0],
+        [0.85, 5.0, 0.0],
+    ];
+    let edges = [[0, 1], [2, 3]];
+    let off = find_conflicts(&Scale::new(1.0, 1.5), &pos, &edges, Par::Seq);
+    assert!(off.edge_pairs.is_empty(), "{:?}", off.edge_pairs);
+    assert_eq!(off.near_resolved, 1);
+    let s = Scale::new(1.0, 1.5).with_special_long(true);
+    assert!(s.is_special_long(1.7) && !s.is_special_long(1.4) && !s.is_special_long(2.1));
+    let on = find_conflicts(&s, &pos, &edges, Par::Seq);
+    assert_eq!(on.edge_pairs, vec![(0, 1, ConflictKind::Proximity)]);
+}

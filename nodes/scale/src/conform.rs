@@ -17,7 +17,12 @@
 //! 4. **Collapses**: short edges the selection drops are collapsed into their sharper end
 //!    vertex; other dropped edges are removed.
 //!
-//! Long edges (which S cannot hold) are never kept. The loop stops when an iteration removes,
+//! Long edges are never kept, except special long edges (§4.3.3.2) with
+//! `special_long_edges: true`: an arc of one edge between r_max and 2 r_min, which S can hold
+//! neither as one edge nor as two (with r_max = 1.5 r_min, every arc from 1.5 to 2 r_min
+//! long). The remesher splits such an edge in two, and the proximity tests treat its middle as
+//! a vertex. Dropping them loses, e.g., the corners of a tunnel 1.7 r_min deep; keeping them
+//! is off by default (see docs/scale-remesh.md for what it changes). The loop stops when an iteration removes,
 //! collapses and resamples nothing (or after `max_iterations`); a final pass then removes,
 //! lightest first, any edge still violating a condition of [`crate::check`], so the output
 //! always passes `scale.check` (`repaired_edges` counts those removals; 0 when the loop
@@ -86,6 +91,10 @@ pub struct ConformParams {
     /// never worse than greedy and is counted in `unproven_components`; only then can the
     /// result depend on the machine's speed.
     pub time_limit_s: f64,
+    /// Keep special long edges (thesis §4.3.3.2; default false): an arc of one edge between
+    /// r_max and 2 r_min, which S can hold neither as one edge nor as two. Off, such arcs are
+    /// dropped. `scale.check` must be given the same value.
+    pub special_long_edges: bool,
 }
 
 impl Default for ConformParams {
@@ -103,6 +112,7 @@ impl Default for ConformParams {
             loop_starts: 4,
             solver: Solver::Ilp,
             time_limit_s: 60.0,
+            special_long_edges: false,
         }
     }
 }
@@ -291,7 +301,11 @@ fn resample(
     };
     let todo: Vec<bool> = arcs
         .iter()
-        .map(|a| a.edges.iter().any(|&e| !s.in_range(len(e))))
+        .map(|a| {
+            // An arc that is one special long edge stays: no resampling holds it better.
+            let special = a.edges.len() == 1 && s.is_special_long(len(a.edges[0]));
+            !special && a.edges.iter().any(|&e| !s.in_range(len(e)))
+        })
         .collect();
     let results = par.map_collect(arcs.len(), |k| {
         if !todo[k] {
@@ -426,6 +440,22 @@ impl Surface<'_> {
 }
 
 /// The selection problem of step 3 for graph `g`.
+/// The edges of `g` that are special long edges (thesis §4.3.3.2): an arc of a single edge
+/// whose length lies between r_max and 2 r_min, which S cannot hold as one edge or as two.
+/// They are kept like edges of S (the remesher splits them in two); other long edges never
+/// are.
+pub(crate) fn special_long_edges(g: &Graph, s: &Scale) -> Vec<bool> {
+    let mut special = vec![false; g.edges.len()];
+    for a in g.arcs() {
+        if let [e] = a.edges[..] {
+            let [u, v] = g.edges[e as usize];
+            special[e as usize] =
+                !a.closed && s.is_special_long(vec3::dist(g.pos[u as usize], g.pos[v as usize]));
+        }
+    }
+    special
+}
+
 pub fn build_problem(
     g: &Graph,
     s: &Scale,
@@ -440,6 +470,7 @@ pub fn build_problem(
         .map(|&[a, b]| vec3::dist(g.pos[a as usize], g.pos[b as usize]))
         .collect();
     let conf = find_conflicts(s, &g.pos, &g.edges, par);
+    let special = special_long_edges(g, s);
     let mut on_loop = vec![false; ne];
     for a in g.arcs() {
         if a.closed {
@@ -527,7 +558,11 @@ pub fn build_problem(
             n_vertices: g.pos.len(),
             edges: g.edges.clone(),
             weight,
-            fixed_zero: len.iter().map(|&l| s.is_long(l)).collect(),
+            fixed_zero: len
+                .iter()
+                .zip(&special)
+                .map(|(&l, &sp)| s.is_long(l) && !sp)
+                .collect(),
             short: len.iter().map(|&l| s.is_short(l)).collect(),
             edge_conflicts: conf.edge_pairs.iter().map(|&(i, j, _)| (i, j)).collect(),
             vertex_conflicts: conf.vertex_pairs,
@@ -660,7 +695,7 @@ pub fn conform_with(
         return Err(ScaleError::Params(format!("{}: {}", i.field, i.message)));
     }
     let r_min = absolute_scale(mesh, params.scale, params.relative)?;
-    let s = Scale::new(r_min, params.aspect);
+    let s = Scale::new(r_min, params.aspect).with_special_long(params.special_long_edges);
     let mut g = Graph::from_network(net, true)?;
     let length: f64 = g
         .edges
@@ -754,7 +789,7 @@ pub struct ConformNode;
 impl NodeKind for ConformNode {
     type Params = ConformParams;
     const KIND: &'static str = "scale.conform";
-    const VERSION: u32 = 5;
+    const VERSION: u32 = 6;
     const DOC: &'static str = "Adapts a feature curve network to a prescribed scale r_min: arcs \
         resampled into edges of length in [r_min, r_max], edge and vertex conflicts detected, \
         the best conflict-free subset selected by an exact binary linear program (weights \

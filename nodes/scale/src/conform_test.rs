@@ -407,3 +407,32 @@ fn resampled_vertices_lie_on_the_mesh() {
     let again = conform(&net, &mesh, &p, Par::Rayon).unwrap();
     assert_eq!(out.network, again.network);
 }
+
+#[test]
+fn an_arc_between_r_max_and_two_r_min_is_a_special_long_edge() {
+    // r_min 1, r_max 1.5: a straight curve 1.7 long can be neither one edge of S nor two.
+    let net = curves(&[(line([10.0, 10.0, 0.0], [11.7, 10.0, 0.0], 17), 1.0)]);
+    let out = conform(&net, &box_mesh(), &params(), Par::Seq).unwrap();
+    assert_eq!(out.stats.output_edges, 0, "dropped by default");
+    assert!(out.stats.long_dropped >= 1);
+    let keep = ConformParams {
+        special_long_edges: true,
+        ..params()
+    };
+    let out = conform(&net, &box_mesh(), &keep, Par::Seq).unwrap();
+    assert_eq!(out.stats.output_edges, 1);
+    assert!(out.stats.converged);
+    let [a, b] = [0, 1].map(|k| out.network.vertices[k].position);
+    assert!((vec3::dist(a, b) - 1.7).abs() < 1e-9);
+    // The check accepts it only when told to.
+    let s = Scale::new(1.0, 1.5).with_special_long(true);
+    let r = crate::check::check_at(&out.network, &s, Par::Seq).unwrap();
+    assert_eq!(
+        (r.violations(), r.special_long_edges),
+        (0, 1),
+        "{}",
+        r.summary()
+    );
+    let r = check_absolute(&out.network, 1.0, 1.5, Par::Seq).unwrap();
+    assert_eq!((r.long_edges, r.special_long_edges), (1, 0));
+}

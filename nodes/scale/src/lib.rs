@@ -28,7 +28,7 @@ mod conform_test;
 #[cfg(test)]
 mod ilp_test;
 
-pub use check::{check, check_absolute, CheckNode, CheckParams, CheckResult};
+pub use check::{check, check_absolute, check_at, CheckNode, CheckParams, CheckResult};
 pub use conflicts::Scale;
 pub use conform::{
     conform, conform_with, ConformNode, ConformOutput, ConformParams, ConformStats, ScaleError,
