@@ -375,22 +375,23 @@ pub fn find_conflicts(s: &Scale, pos: &[V3], edges: &[[u32; 2]], par: Par) -> Co
         }
         // A special long edge is remeshed as two halves: its middle becomes a vertex that
         // the triangulations (c)/(d) must reach too.
-        let halves = |p: V3, q: V3, l: f64| {
+        // Without special long edges (the default) each side is the edge itself: no
+        // allocation per candidate pair.
+        let halves = |p: V3, q: V3, l: f64| -> ([(V3, V3); 2], usize) {
             if s.is_special_long(l) {
                 let m = vec3::lerp(p, q, 0.5);
-                vec![(p, m), (m, q)]
+                ([(p, m), (m, q)], 2)
             } else {
-                vec![(p, q)]
+                ([(p, q); 2], 1)
             }
         };
-        let (hi, hj) = (
-            halves(pa, pb, len[i as usize]),
-            halves(pc, pd, len[j as usize]),
-        );
-        Some(
-            hi.iter()
-                .any(|&(p, q)| hj.iter().any(|&(r, t)| nonadjacent_conflict(s, p, q, r, t))),
-        )
+        let (hi, ni) = halves(pa, pb, len[i as usize]);
+        let (hj, nj) = halves(pc, pd, len[j as usize]);
+        Some(hi[..ni].iter().any(|&(p, q)| {
+            hj[..nj]
+                .iter()
+                .any(|&(r, t)| nonadjacent_conflict(s, p, q, r, t))
+        }))
     });
     let mut near_resolved = 0;
     for (k, t) in tested.iter().enumerate() {
