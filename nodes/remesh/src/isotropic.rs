@@ -2088,10 +2088,10 @@ impl State<'_> {
     /// for; where the crease bends tightly, the input bulges beyond it, and the new chain
     /// vertex goes onto the crease), under the same conditions as a moved vertex (the four
     /// triangles turn by at most 60° from the two they replace, their smallest angle is at
-    /// least 30°, nothing near ends up farther). A new triangle below that angle may instead be flipped with its
-    /// neighbour across its side opposite the new vertex (the new vertex then reaches one
-    /// vertex further; between two rows of fixed vertices that is the only way to keep the
-    /// angles). Returns the new vertex.
+    /// least 30°, nothing near ends up farther). A new triangle below that angle may instead
+    /// be flipped with its neighbour across its side opposite the new vertex (the new vertex
+    /// then reaches one vertex further; between two rows of fixed vertices that is the only
+    /// way to keep the angles). Returns the new vertex.
     fn split_toward(&mut self, f: u32, blocked: &[bool], pull: &mut FarPull<'_>) -> Option<u32> {
         let p = pull.p;
         // Edges of inner feature chains after the others.

@@ -22,11 +22,12 @@
 //! neither as one edge nor as two (with r_max = 1.5 r_min, every arc from 1.5 to 2 r_min
 //! long). The remesher splits such an edge in two, and the proximity tests treat its middle as
 //! a vertex. Dropping them loses, e.g., the corners of a tunnel 1.7 r_min deep; keeping them
-//! is off by default (see docs/scale-remesh.md for what it changes). The loop stops when an iteration removes,
-//! collapses and resamples nothing (or after `max_iterations`); a final pass then removes,
-//! lightest first, any edge still violating a condition of [`crate::check`], so the output
-//! always passes `scale.check` (`repaired_edges` counts those removals; 0 when the loop
-//! converged).
+//! is off by default (see docs/scale-remesh.md for what it changes).
+//!
+//! The loop stops when an iteration removes, collapses and resamples nothing (or after
+//! `max_iterations`); a final pass then removes, lightest first, any edge still violating a
+//! condition of [`crate::check`], so the output always passes `scale.check`
+//! (`repaired_edges` counts those removals; 0 when the loop converged).
 
 use serde::{Deserialize, Serialize};
 
@@ -446,6 +447,10 @@ impl Surface<'_> {
 /// are.
 pub(crate) fn special_long_edges(g: &Graph, s: &Scale) -> Vec<bool> {
     let mut special = vec![false; g.edges.len()];
+    // Off (the default), no arcs to walk: `build_problem` runs in every iteration.
+    if !s.special_long {
+        return special;
+    }
     for a in g.arcs() {
         if let [e] = a.edges[..] {
             let [u, v] = g.edges[e as usize];
