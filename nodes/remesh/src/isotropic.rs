@@ -1749,14 +1749,24 @@ impl State<'_> {
             if v == NONE {
                 return true;
             }
-            // The triangles around v, then those around its neighbours.
+            // The triangles around v, then those around its neighbours; a corner well within
+            // the limit settles a fan without its triangles.
             let x = input.positions[i];
+            let near_corner = |u: u32| {
+                let d = vec3::sub(self.he.position(u), x);
+                vec3::dot(d, d) <= NEAR_CORNER * limit2
+            };
             let close = |u: u32| {
                 self.he
                     .outgoing(u)
                     .any(|k| dist2_to_face(self, x, halfedge::face_of(k)) <= limit2)
             };
-            !(close(v) || self.neighbor_iter(v).any(close))
+            let near = |u: u32| {
+                let n = near_corner(u);
+                debug_assert!(!n || close(u), "a corner within the limit but no triangle");
+                n || close(u)
+            };
+            !(near(v) || self.neighbor_iter(v).any(near))
         });
         let maybe_far: Vec<u32> = (0..n_in as u32)
             .filter(|&i| maybe_far[i as usize])
@@ -1886,16 +1896,57 @@ impl State<'_> {
                         .collect::<Vec<_>>()
                 })
                 .collect();
-            for h in far.iter_mut() {
-                let x = input.positions[h.1 as usize];
-                h.0 = dist2_to_face(self, x, h.2);
-                for &g in &moved_faces {
-                    let d2 = dist2_to_face(self, x, g);
-                    if d2 < h.0 {
-                        *h = (d2, h.1, g);
+            // A moved face can only be closer than a far point's current face if its box is;
+            // the test keeps a relative margin, so that rounding in the exact distance cannot
+            // make a face skipped here the closer one. Far points are independent: each is
+            // updated on its own, on the pool.
+            let boxes: Vec<(V3, V3)> = moved_faces
+                .iter()
+                .map(|&g| {
+                    let [a, b, c] = tri(self, g);
+                    (
+                        std::array::from_fn(|k| a[k].min(b[k]).min(c[k])),
+                        std::array::from_fn(|k| a[k].max(b[k]).max(c[k])),
+                    )
+                })
+                .collect();
+            far = {
+                let st = &*self;
+                let (far, moved_faces, boxes) = (&far, &moved_faces, &boxes);
+                // (A few far points are not worth a parallel loop.)
+                let par = if far.len() >= 256 { par } else { Par::Seq };
+                par.map_collect(far.len(), |j| {
+                    let (_, i, f) = far[j];
+                    let x = input.positions[i as usize];
+                    let mut h = (dist2_to_face(st, x, f), i, f);
+                    for (&g, (lo, hi)) in moved_faces.iter().zip(boxes) {
+                        let gap2: f64 = (0..3)
+                            .map(|k| (lo[k] - x[k]).max(x[k] - hi[k]).max(0.0).powi(2))
+                            .sum();
+                        if gap2 > h.0 * (1.0 + 1e-9) {
+                            continue;
+                        }
+                        let d2 = dist2_to_face(st, x, g);
+                        if d2 < h.0 {
+                            h = (d2, i, g);
+                        }
                     }
-                }
-            }
+                    debug_assert!(
+                        {
+                            let mut all = (dist2_to_face(st, x, f), i, f);
+                            for &g in moved_faces {
+                                let d2 = dist2_to_face(st, x, g);
+                                if d2 < all.0 {
+                                    all = (d2, i, g);
+                                }
+                            }
+                            all == h
+                        },
+                        "a moved face skipped by its box is the closer one"
+                    );
+                    h
+                })
+            };
             for &(_, i, _) in &far {
                 far_face[i as usize] = NONE;
             }
@@ -3345,6 +3396,11 @@ fn grow_over_input(
 /// How far, in target lengths, a vertex of a sliver may move onto an input vertex
 /// ([`State::move_sliver_vertices_onto_input`]).
 const SLIVER_MOVE_REACH: f64 = 0.8;
+
+/// A share of the squared far-point limit within which an output vertex alone shows that an
+/// input vertex is not far: below 1, so that rounding in the triangle distances cannot undo
+/// what the vertex shows.
+const NEAR_CORNER: f64 = 0.99;
 
 /// Distance from the output, in target lengths, beyond which an input vertex pulls the
 /// output onto itself ([`State::pull_to_far_points`]).
