@@ -1940,7 +1940,9 @@ impl State<'_> {
                                     all = (d2, i, g);
                                 }
                             }
-                            all == h
+                            // (Below the limit the point is dropped whichever face it
+                            // keeps, and the margin may not cover rounding that small.)
+                            all == h || (all.0 <= limit2 && h.0 <= limit2)
                         },
                         "a moved face skipped by its box is the closer one"
                     );
