@@ -78,7 +78,7 @@ pub fn closest_point_on_triangle(p: V3, a: V3, b: V3, c: V3) -> (f64, [f64; 3]) 
 
 /// An axis-aligned box.
 #[derive(Clone, Copy, Debug)]
-struct Aabb {
+pub struct Aabb {
     lo: V3,
     hi: V3,
 }
@@ -88,6 +88,14 @@ impl Aabb {
         lo: [f64::INFINITY; 3],
         hi: [f64::NEG_INFINITY; 3],
     };
+    /// The smallest box holding `points` (NaN coordinates left out).
+    pub fn around(points: &[V3]) -> Aabb {
+        let mut b = Aabb::EMPTY;
+        for &p in points {
+            b.grow(p);
+        }
+        b
+    }
     /// Grows the box to hold `p`; NaN coordinates are left out (as by `f64::min`), in
     /// comparisons that compile to plain min/max instructions.
     fn grow(&mut self, p: V3) {
@@ -101,7 +109,7 @@ impl Aabb {
         self.grow(o.hi);
     }
     /// Squared distance from `p` to the box (0 inside).
-    fn dist2(&self, p: V3) -> f64 {
+    pub fn dist2(&self, p: V3) -> f64 {
         let mut s = 0.0;
         for (k, &c) in p.iter().enumerate() {
             let d = (self.lo[k] - c).max(c - self.hi[k]).max(0.0);

@@ -156,6 +156,7 @@ use crestflow_flow::{
     check_range, Ctx, ErrorKind, Inputs, NodeError, NodeKind, Outputs, Par, ParamIssue, Port,
     Report, Validate,
 };
+use crestflow_geom::bvh::Aabb;
 use crestflow_geom::halfedge::{self, HalfEdgeError, HalfEdgeMesh, NONE};
 use crestflow_geom::locality::{median_corner_spread, spatially_ordered};
 use crestflow_geom::vec3::{self, V3};
@@ -1900,30 +1901,20 @@ impl State<'_> {
             // the test keeps a relative margin, so that rounding in the exact distance cannot
             // make a face skipped here the closer one. Far points are independent: each is
             // updated on its own, on the pool.
-            let boxes: Vec<(V3, V3)> = moved_faces
+            let boxes: Vec<Aabb> = moved_faces
                 .iter()
-                .map(|&g| {
-                    let [a, b, c] = tri(self, g);
-                    (
-                        std::array::from_fn(|k| a[k].min(b[k]).min(c[k])),
-                        std::array::from_fn(|k| a[k].max(b[k]).max(c[k])),
-                    )
-                })
+                .map(|&g| Aabb::around(&tri(self, g)))
                 .collect();
             far = {
                 let st = &*self;
                 let (far, moved_faces, boxes) = (&far, &moved_faces, &boxes);
-                // (A few far points are not worth a parallel loop.)
-                let par = if far.len() >= 256 { par } else { Par::Seq };
-                par.map_collect(far.len(), |j| {
-                    let (_, i, f) = far[j];
+                // The nearest of its face and the moved ones, skipping those whose box is
+                // farther when `boxed`.
+                let nearest = |(_, i, f): (f64, u32, u32), boxed: bool| {
                     let x = input.positions[i as usize];
                     let mut h = (dist2_to_face(st, x, f), i, f);
-                    for (&g, (lo, hi)) in moved_faces.iter().zip(boxes) {
-                        let gap2: f64 = (0..3)
-                            .map(|k| (lo[k] - x[k]).max(x[k] - hi[k]).max(0.0).powi(2))
-                            .sum();
-                        if gap2 > h.0 * (1.0 + 1e-9) {
+                    for (&g, b) in moved_faces.iter().zip(boxes) {
+                        if boxed && b.dist2(x) > h.0 * (1.0 + 1e-9) {
                             continue;
                         }
                         let d2 = dist2_to_face(st, x, g);
@@ -1931,17 +1922,17 @@ impl State<'_> {
                             h = (d2, i, g);
                         }
                     }
+                    h
+                };
+                // (A few far points are not worth a parallel loop.)
+                let par = if far.len() >= 256 { par } else { Par::Seq };
+                par.map_collect(far.len(), |j| {
+                    let h = nearest(far[j], true);
                     debug_assert!(
                         {
-                            let mut all = (dist2_to_face(st, x, f), i, f);
-                            for &g in moved_faces {
-                                let d2 = dist2_to_face(st, x, g);
-                                if d2 < all.0 {
-                                    all = (d2, i, g);
-                                }
-                            }
                             // (Below the limit the point is dropped whichever face it
                             // keeps, and the margin may not cover rounding that small.)
+                            let all = nearest(far[j], false);
                             all == h || (all.0 <= limit2 && h.0 <= limit2)
                         },
                         "a moved face skipped by its box is the closer one"

@@ -374,9 +374,8 @@ pub fn find_conflicts(s: &Scale, pos: &[V3], edges: &[[u32; 2]], par: Par) -> Co
             return None;
         }
         // A special long edge is remeshed as two halves: its middle becomes a vertex that
-        // the triangulations (c)/(d) must reach too.
-        // Without special long edges (the default) each side is the edge itself: no
-        // allocation per candidate pair.
+        // the triangulations (c)/(d) must reach too. Other edges stand as themselves (fixed
+        // arrays: no allocation per candidate pair).
         let halves = |p: V3, q: V3, l: f64| -> ([(V3, V3); 2], usize) {
             if s.is_special_long(l) {
                 let m = vec3::lerp(p, q, 0.5);
