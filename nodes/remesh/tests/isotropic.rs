@@ -1105,6 +1105,52 @@ fn valence_collapses_reach_what_flips_cannot() {
     }
 }
 
+#[test]
+fn vertex_splits_reach_what_collapses_and_flips_cannot() {
+    // A 7 with two 5s two steps apart around it (or an 8) is left alone by every flip and
+    // every collapse; split in two, each half taking one of the 5s as a new neighbour, it
+    // leaves a 5 and three 6s (an 8 with two 5s: four 6s). Without the splits (measured):
+    // valence-6 shares 0.8865 / 0.8751 / 0.8689 / 0.5375, smallest angles 31.22° / 40.36° /
+    // 30.20° / 17.25°, farthest input vertex 0.044 / 0.018 / 0.300 / 0.139 L; with them
+    // 0.8896 / 0.8834 / 0.8782 / 0.5510, 37.59° / 37.32° / 30.20° / 18.89°, 0.037 / 0.020 /
+    // 0.300 / 0.139 L.
+    let sphere = shapes::sphere(1.0, 5).unwrap();
+    let ellipsoid = shapes::ellipsoid(1.0, 0.7, 0.5, 5, 0.0, 1).unwrap();
+    let bunny = shared_mesh("organic/cgal_bunny00.off");
+    let fandisk = shared_mesh("cad/cgal_fandisk_large.off");
+    let rel = |target: f64| IsotropicParams {
+        target,
+        ..Default::default()
+    };
+    for (name, input, params, floor, angle, reach) in [
+        ("ellipsoid", &ellipsoid, abs(0.05), 0.888, 30.0, 0.04),
+        ("sphere", &sphere, abs(0.06), 0.88, 30.0, 0.025),
+        ("bunny", &bunny, rel(0.02), 0.875, 30.0, 0.31),
+        // Every sharp edge kept: the ladders of its creases pin needles (17.25° before).
+        ("fandisk_large", &fandisk, rel(0.02), 0.545, 18.0, 0.15),
+    ] {
+        let r = isotropic(input, None, &params, Par::Rayon).unwrap();
+        let out = &r.mesh;
+        assert_manifold(out);
+        let splits = r.report.num("valence_splits").unwrap();
+        assert!(splits > 0.0, "{name}: no vertex split for the valences");
+        let share = valence6_share(out);
+        assert!(share > floor, "{name}: valence-6 share {share:.4}");
+        let lo = min_angle_deg(out);
+        assert!(lo >= angle, "{name}: min angle {lo:.2}°");
+        // Only where no input vertex near the split ends farther than 0.15 L (or than before).
+        let l = r.report.num("target_abs").unwrap();
+        let far = farthest_input_vertex(input, out) / l;
+        eprintln!(
+            "{name}: {splits} splits, valence 6 {share:.4}, min angle {lo:.2}°, far {far:.4} L"
+        );
+        assert!(
+            far < reach,
+            "{name}: an input vertex is {far:.4} L from the output"
+        );
+    }
+}
+
 /// The strip of `far_points_between_boundary_vertices_get_a_new_vertex`: one target length
 /// (0.1) wide, with a bump 0.036 high in its middle.
 fn bumped_strip() -> TriMesh {
