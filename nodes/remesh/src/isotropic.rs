@@ -43,60 +43,56 @@
 //!    closest point of a BVH as the fallback ([`crate::project`]; the start face is kept
 //!    through splits and collapses);
 //!
-//! step 4 repeats `smoothing_steps` times per round, step 5 follows the last of them. After
-//! the last round, an edge between two free vertices collapses when that lowers the squared
-//! valence deviation of the four corners of its pair (a 5–5 edge between two 7s becomes one
-//! regular vertex between two regular ones, where a flip would make 4s and 8s), under the
-//! tests of step 2 with edges up to 1.5 L and angles down to 30° instead of 20°, and only
-//! where both removed vertices lie within 0.1 L of the triangles that replace them; two
-//! relaxation steps follow (bunny at 2 %: valence-6 share 0.801 → 0.821, ellipsoid 0.866 →
-//! 0.883). Before those steps, the inverse: a free vertex of valence 7 or more splits into
-//! two joined vertices when that lowers the squared valence deviation of it and the two ring
-//! vertices that gain an edge (a 7 with two 5s becomes a 5 and a 6 beside two 6s, an 8 two
-//! 6s), with the two vertices at their rings' centroids on the input, their triangles at 30°
-//! or more (or no smaller than before), turned by at most 60°, sides of 0.6–4/3 of the
-//! local target, and no input vertex nearby left farther than before and than 0.15 L (bunny
-//! at 2 %: 0.869 → 0.878; cgal_fandisk_large at 2 %, every sharp edge kept: 0.538 → 0.551
-//! and smallest angle 17.25° → 18.89°). Then a triangle still below 30° loses its shortest edge when that collapse
-//! raises the smallest angle around it, allowing edges up to 2 L (under the feature rules of
-//! step 2): a vertex left near a corner or a feature, whose collapse every round refused for
-//! an edge just over 4/3 L, goes. Then one more flip sweep (step 3) runs, since relaxation
-//! moved the vertices, and a free vertex of a triangle still below 30° moves to the best of
-//! a few nearby positions on the input surface when that raises the smallest angle of its
-//! triangles and they stay within 15° of their mean normal (beside curved features, whose
-//! bends pin short feature edges); where they spread wider, only when the move lifts their
-//! smallest angle to 30° (on curved patches small gains are not worth the change of
-//! surface; the armadillo's conforming remesh kept one triangle of 27.5–28.6°). The vertices
-//! to move are coloured greedily in face order so that no two of a colour are neighbours; the
-//! moves of one colour do not change what the others of it find, so they are planned on the
-//! pool and made colour by colour (the default fandisk_large at 2 %, where most of these moves
-//! are made, about 6 % faster on two threads). Those moves change which flips raise a pair's
-//! smallest angle (a free vertex fanning over short feature edges ends up beside them), so
-//! the flip sweep and the moves run once more. Where a
-//! triangle is still below 30°, its free corners may move onto an input vertex up to 0.8 L
-//! away for any gain in their fans' smallest angle (no turn over 60°, no chord off the
-//! surface), each round followed by the nearby moves again; the vertices so moved go back in
-//! groups (joined by edges) unless every triangle around a group ends at 30° or more and no
-//! group vertex is next to a feature chain (a vertex inside one, or a corner where two feature
-//! edges meet; such vertices do not take these moves either). That takes a claw thinner than
-//! L, whose fixed tip has its three neighbours on one side of it, to 30° (the subdivided
-//! armadillo at 2 % with its axes as `zxy`: 3.10° before). Beside feature chains the moves
-//! left the smallest angles as they were and moved the Hausdorff distance by up to 12 %, and
-//! trying them there made the armadillo at 2 % a third slower. Last, where
-//! the output cuts off a tip or a thin rim of the input by more than 0.3 L (the bunny's ears
-//! at 2 %, by 0.84 L before this step), an edge of the closest output triangle is flipped when
-//! that brings the input vertex within 0.7 times its distance without worse valences (an edge
-//! across a crease), else a free vertex of that triangle moves
-//! onto the cut-off input vertex (or, when all three corners are feature vertices, a free
-//! neighbour of them) when its triangles keep angles of at least 30° and no point around
-//! them ends up farther from the input than 0.3 L, than before, or than 0.7 times the
-//! distance of the point pulled in. Where no vertex may move, an edge of that triangle is
-//! split with the new vertex on the input point, under the same tests; a new triangle below
-//! 30° may be flipped with its neighbour across the side opposite the new vertex (the only
-//! way between two rows of fixed vertices). Where neither is allowed, a free corner moves
-//! three quarters, half or a quarter of the way (projected onto the input) when that brings
-//! the input vertex within 0.3 L, keeps its triangles at 30° or more, and leaves every point
-//! around them within 0.3 L of the input or as near as before.
+//! step 4 repeats `smoothing_steps` times per round, step 5 follows the last of them. After the
+//! last round, an edge between two free vertices collapses when that lowers the squared valence
+//! deviation of the four corners of its pair (a 5–5 edge between two 7s becomes one regular vertex
+//! between two regular ones, where a flip would make 4s and 8s), under the tests of step 2 with
+//! edges up to 1.5 L and angles down to 30° instead of 20°, and only where both removed vertices
+//! lie within 0.1 L of the triangles that replace them; two relaxation steps follow (bunny at 2 %:
+//! valence-6 share 0.801 → 0.821, ellipsoid 0.866 → 0.883). Before those steps, the inverse: a free
+//! vertex of valence 7 or more splits into two joined vertices when that lowers the squared valence
+//! deviation of it and the two ring vertices that gain an edge (a 7 with two 5s becomes a 5 and a 6
+//! beside two 6s, an 8 two 6s), with the two vertices at their rings' centroids on the input, their
+//! triangles at 30° or more (or no smaller than before), turned by at most 60°, sides of 0.6–4/3 of
+//! the local target, and no input vertex nearby left farther than before and than 0.15 L (bunny at
+//! 2 %: 0.869 → 0.878; cgal_fandisk_large at 2 %, every sharp edge kept: 0.538 → 0.551 and smallest
+//! angle 17.25° → 18.89°). Then a triangle still below 30° loses its shortest edge when that
+//! collapse raises the smallest angle around it, allowing edges up to 2 L (under the feature rules
+//! of step 2): a vertex left near a corner or a feature, whose collapse every round refused for an
+//! edge just over 4/3 L, goes. Then one more flip sweep (step 3) runs, since relaxation moved the
+//! vertices, and a free vertex of a triangle still below 30° moves to the best of a few nearby
+//! positions on the input surface when that raises the smallest angle of its triangles and they
+//! stay within 15° of their mean normal (beside curved features, whose bends pin short feature
+//! edges); where they spread wider, only when the move lifts their smallest angle to 30° (on curved
+//! patches small gains are not worth the change of surface; the armadillo's conforming remesh kept
+//! one triangle of 27.5–28.6°). The vertices to move are coloured greedily in face order so that no
+//! two of a colour are neighbours; the moves of one colour do not change what the others of it
+//! find, so they are planned on the pool and made colour by colour (the default fandisk_large at 2
+//! %, where most of these moves are made, about 6 % faster on two threads). Those moves change
+//! which flips raise a pair's smallest angle (a free vertex fanning over short feature edges ends
+//! up beside them), so the flip sweep and the moves run once more. Where a triangle is still below
+//! 30°, its free corners may move onto an input vertex up to 0.8 L away for any gain in their fans'
+//! smallest angle (no turn over 60°, no chord off the surface), each round followed by the nearby
+//! moves again; the vertices so moved go back in groups (joined by edges) unless every triangle
+//! around a group ends at 30° or more and no group vertex is next to a feature chain (a vertex
+//! inside one, or a corner where two feature edges meet; such vertices do not take these moves
+//! either). That takes a claw thinner than L, whose fixed tip has its three neighbours on one side
+//! of it, to 30° (the subdivided armadillo at 2 % with its axes as `zxy`: 3.10° before). Beside
+//! feature chains the moves left the smallest angles as they were and moved the Hausdorff distance
+//! by up to 12 %, and trying them there made the armadillo at 2 % a third slower. Last, where the
+//! output cuts off a tip or a thin rim of the input by more than 0.3 L (the bunny's ears at 2 %, by
+//! 0.84 L before this step), an edge of the closest output triangle is flipped when that brings the
+//! input vertex within 0.7 times its distance without worse valences (an edge across a crease),
+//! else a free vertex of that triangle moves onto the cut-off input vertex (or, when all three
+//! corners are feature vertices, a free neighbour of them) when its triangles keep angles of at
+//! least 30° and no point around them ends up farther from the input than 0.3 L, than before, or
+//! than 0.7 times the distance of the point pulled in. Where no vertex may move, an edge of that
+//! triangle is split with the new vertex on the input point, under the same tests; a new triangle
+//! below 30° may be flipped with its neighbour across the side opposite the new vertex (the only
+//! way between two rows of fixed vertices). Where neither is allowed, a free corner moves three
+//! quarters, half or a quarter of the way (projected onto the input) when that brings the input
+//! vertex within 0.3 L, keeps its triangles at 30° or more, and leaves every point around them
+//! within 0.3 L of the input or as near as before.
 //!
 //! With `feature_grading` > 0 the target is local: L, except near stretches of feature chain
 //! whose bends only allow shorter edges (their [`Chain::edge_capacity`] under the tolerance),
@@ -145,7 +141,8 @@
 //! any feature vertex.
 //!
 //! Termination: a fixed number of rounds, at most 64 split and 4 collapse sweeps per round,
-//! and a vertex cap (local targets are never below L / 20). A target below 1/20 of the input's mean edge length is rejected.
+//! and a vertex cap (local targets are never below L / 20). A target below 1/20 of the input's
+//! mean edge length is rejected.
 //! Locality: after each round's sweeps the mesh is compacted; when splits have grown it past
 //! 1.5 times its size at the last numbering (a target finer than the input's edges), it is
 //! also renumbered with every vertex beside the input vertex it descends from
@@ -1998,14 +1995,9 @@ impl State<'_> {
         let ring: Vec<u32> = self.neighbor_iter(v).collect();
         let (q, q_hint) = (self.he.position(v), self.hint[v as usize]);
         let (tris, hints, faces) = self.fan_move(v, x, x_face);
-        if partway {
-            let d2 = tris[1]
-                .iter()
-                .map(|t| crestflow_geom::bvh::closest_point_on_triangle(pull.p, t[0], t[1], t[2]).0)
-                .fold(f64::INFINITY, f64::min);
-            if d2 > pull.limit * pull.limit {
-                return false;
-            }
+        if partway && dist2_to_triangles(pull.p, tris[1].iter().copied()) > pull.limit * pull.limit
+        {
+            return false;
         }
         // A partial pull makes no trade: the bound on what the move may uncover drops to
         // the limit itself.
@@ -2104,12 +2096,7 @@ impl State<'_> {
             }
             let before = [[x(a), x(b), x(c)], [x(b), x(a), x(d)]];
             let after = [[x(a), x(d), x(c)], [x(b), x(c), x(d)]];
-            let d2 = |t: &[[V3; 3]; 2]| {
-                t.iter()
-                    .map(|t| crestflow_geom::bvh::closest_point_on_triangle(p, t[0], t[1], t[2]).0)
-                    .fold(f64::INFINITY, f64::min)
-            };
-            if d2(&after) > FAR_TRADE * FAR_TRADE * far_d2 {
+            if dist2_to_triangles(p, after) > FAR_TRADE * FAR_TRADE * far_d2 {
                 continue;
             }
             let old = min_angle_cos(x(a), x(b), x(c)).max(min_angle_cos(x(b), x(a), x(d)));
@@ -2449,11 +2436,7 @@ impl State<'_> {
         input: &TriMesh,
     ) -> bool {
         let [before, after] = tris;
-        let dist2 = |tris: &[[V3; 3]], x: V3| {
-            tris.iter()
-                .map(|t| crestflow_geom::bvh::closest_point_on_triangle(x, t[0], t[1], t[2]).0)
-                .fold(f64::INFINITY, f64::min)
-        };
+        let dist2 = |tris: &[[V3; 3]], x: V3| dist2_to_triangles(x, tris.iter().copied());
         let limit2 = limit * limit;
         let mut uncovered: f64 = 0.0;
         for &k in near {
@@ -2690,9 +2673,11 @@ impl State<'_> {
     /// where it lowers the squared valence deviation of `v`, `r_p` and `r_q` (targets as for
     /// the flips), where the two vertices at their rings' centroids, on the input, make
     /// triangles that keep 30° (or the fan's smallest angle), turn by at most 60° and have
-    /// sides between 0.6 and 4/3 of the local target, and where `v`'s old place lies within
-    /// 0.1 L of them. Three sweeps at most; the rings of a split wait for the next sweep.
-    /// Sequential, in slot order: the same bits at any thread count.
+    /// sides between 0.6 and 4/3 of the local target, where `v`'s old place lies within 0.1 L
+    /// of them, and where no input vertex nearby ends up farther than before and than
+    /// [`VALENCE_SPLIT_NEAR`]·L ([`State::split_keeps_input_close`]). Three sweeps at most;
+    /// the rings of a split wait for the next sweep. Sequential, in slot order: the same bits
+    /// at any thread count.
     fn split_for_valence(&mut self, input: &TriMesh) -> usize {
         let off2 = (VALENCE_COLLAPSE_OFF * self.l).powi(2);
         let mut stamp = vec![0u32; input.n_vertices()];
@@ -2853,13 +2838,7 @@ impl State<'_> {
             let Some(new) = shaped(pa, pb) else {
                 continue;
             };
-            let ok = new
-                .iter()
-                .map(|(t, _)| {
-                    crestflow_geom::bvh::closest_point_on_triangle(pv, t[0], t[1], t[2]).0
-                })
-                .fold(f64::INFINITY, f64::min)
-                <= off2
+            let ok = dist2_to_triangles(pv, new.iter().map(|(t, _)| *t)) <= off2
                 && self.split_keeps_input_close(v, &ring, &old, &new, input, stamp, generation);
             if ok {
                 return Some(VertexSplit {
@@ -2905,10 +2884,6 @@ impl State<'_> {
             stamp,
             *generation,
         );
-        let dist2 = |x: V3, tris: &mut dyn Iterator<Item = [V3; 3]>| {
-            tris.map(|t| crestflow_geom::bvh::closest_point_on_triangle(x, t[0], t[1], t[2]).0)
-                .fold(f64::INFINITY, f64::min)
-        };
         // The faces around the fan stay: a point closer to one of them keeps that distance.
         let fan: Vec<u32> = self.he.outgoing(v).map(halfedge::face_of).collect();
         let mut around: Vec<[V3; 3]> = Vec::new();
@@ -2925,13 +2900,13 @@ impl State<'_> {
         let limit2 = limit * limit;
         near.iter().all(|&k| {
             let x = input.positions[k as usize];
-            let d_new = dist2(x, &mut new.iter().map(|(t, _)| *t));
+            let d_new = dist2_to_triangles(x, new.iter().map(|(t, _)| *t));
             if d_new <= limit2 {
                 return true;
             }
-            let d_around = dist2(x, &mut around.iter().copied());
-            d_new.min(d_around) <= limit2
-                || d_new.min(d_around) <= dist2(x, &mut old.iter().copied()).min(d_around)
+            let d_around = dist2_to_triangles(x, around.iter().copied());
+            let d_new = d_new.min(d_around);
+            d_new <= limit2 || d_new <= dist2_to_triangles(x, old.iter().copied()).min(d_around)
         })
     }
 
@@ -2961,18 +2936,14 @@ impl State<'_> {
     /// Squared distance from `q` to the triangles that stay around `a` and `b` when they
     /// merge at `p` (those of the edge a–b itself go).
     fn merged_fan_dist2(&self, a: u32, b: u32, p: V3, q: V3) -> f64 {
-        let mut best = f64::INFINITY;
-        for (v, other) in [(a, b), (b, a)] {
-            for k in self.he.outgoing(v) {
-                let t = self.he.face_vertices(halfedge::face_of(k));
-                if t.contains(&other) {
-                    continue;
-                }
-                let [x, y, z] = t.map(|u| if u == v { p } else { self.he.position(u) });
-                best = best.min(crestflow_geom::bvh::closest_point_on_triangle(q, x, y, z).0);
-            }
-        }
-        best
+        let stay = [(a, b), (b, a)].into_iter().flat_map(|(v, other)| {
+            self.he
+                .outgoing(v)
+                .map(|k| self.he.face_vertices(halfedge::face_of(k)))
+                .filter(move |t| !t.contains(&other))
+                .map(move |t| t.map(|u| if u == v { p } else { self.he.position(u) }))
+        });
+        dist2_to_triangles(q, stay)
     }
 
     fn collapse_slivers_sweep(&mut self, stretch2: f64) -> bool {
@@ -3771,6 +3742,13 @@ fn keeps_orientation(n_old: V3, t: [V3; 3], cos_max: f64) -> bool {
     // square roots on the collapse path (`cos_max ≥ 0`, so `dot ≥ 0` comes first).
     debug_assert!(cos_max >= 0.0);
     ln2 > 1e-24 * lo2 && dot >= 0.0 && dot * dot >= cos_max * cos_max * lo2 * ln2
+}
+
+/// Squared distance from `x` to the nearest of the triangles `tris` (infinite for none).
+fn dist2_to_triangles(x: V3, tris: impl IntoIterator<Item = [V3; 3]>) -> f64 {
+    tris.into_iter()
+        .map(|t| crestflow_geom::bvh::closest_point_on_triangle(x, t[0], t[1], t[2]).0)
+        .fold(f64::INFINITY, f64::min)
 }
 
 /// Cosine of the smallest interior angle of triangle (a, b, c) (1 when degenerate): the angle

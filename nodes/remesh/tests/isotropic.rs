@@ -18,6 +18,14 @@ fn abs(target: f64) -> IsotropicParams {
     }
 }
 
+/// Default parameters with a target relative to the bounding-box diagonal.
+fn rel(target: f64) -> IsotropicParams {
+    IsotropicParams {
+        target,
+        ..Default::default()
+    }
+}
+
 fn min_angle_deg(m: &TriMesh) -> f64 {
     let mut lo = f64::INFINITY;
     for f in 0..m.n_faces() {
@@ -1077,32 +1085,43 @@ fn valence_collapses_reach_what_flips_cannot() {
     let sphere = shapes::sphere(1.0, 5).unwrap();
     let ellipsoid = shapes::ellipsoid(1.0, 0.7, 0.5, 5, 0.0, 1).unwrap();
     let bunny = shared_mesh("organic/cgal_bunny00.off");
-    let rel = |target: f64| IsotropicParams {
-        target,
-        ..Default::default()
-    };
+    // Only where the removed vertices stay near the new triangles: nothing is cut off.
     for (name, input, params, floor, reach) in [
         ("ellipsoid", &ellipsoid, abs(0.05), 0.875, 0.06),
         ("sphere", &sphere, abs(0.06), 0.87, 0.03),
         ("bunny", &bunny, rel(0.02), 0.81, 0.35),
     ] {
-        let r = isotropic(input, None, &params, Par::Rayon).unwrap();
-        let out = &r.mesh;
-        assert_manifold(out);
-        let collapses = r.report.num("valence_collapses").unwrap();
-        assert!(collapses > 0.0, "{name}: no collapse for the valences");
-        let share = valence6_share(out);
-        assert!(share > floor, "{name}: valence-6 share {share:.4}");
-        let lo = min_angle_deg(out);
-        assert!(lo >= 30.0, "{name}: min angle {lo:.2}°");
-        // Only where the removed vertices stay near the new triangles: nothing is cut off.
-        let l = r.report.num("target_abs").unwrap();
-        let far = farthest_input_vertex(input, out) / l;
-        assert!(
-            far < reach,
-            "{name}: an input vertex is {far:.4} L from the output"
-        );
+        let bounds = (floor, 30.0, reach);
+        assert_valence_step(name, input, &params, "valence_collapses", bounds);
     }
+}
+
+/// Remeshes `input` and asserts a manifold output on which the valence step reported under
+/// `key` made something, with a valence-6 share above `floor`, no angle below `angle` and no
+/// input vertex `reach` target lengths or more from it.
+fn assert_valence_step(
+    name: &str,
+    input: &TriMesh,
+    params: &IsotropicParams,
+    key: &str,
+    (floor, angle, reach): (f64, f64, f64),
+) {
+    let r = isotropic(input, None, params, Par::Rayon).unwrap();
+    let out = &r.mesh;
+    assert_manifold(out);
+    let made = r.report.num(key).unwrap();
+    let share = valence6_share(out);
+    let lo = min_angle_deg(out);
+    let l = r.report.num("target_abs").unwrap();
+    let far = farthest_input_vertex(input, out) / l;
+    eprintln!("{name}: {key} {made}, valence 6 {share:.4}, min angle {lo:.2}°, far {far:.4} L");
+    assert!(made > 0.0, "{name}: {key} is 0");
+    assert!(share > floor, "{name}: valence-6 share {share:.4}");
+    assert!(lo >= angle, "{name}: min angle {lo:.2}°");
+    assert!(
+        far < reach,
+        "{name}: an input vertex is {far:.4} L from the output"
+    );
 }
 
 #[test]
@@ -1118,10 +1137,7 @@ fn vertex_splits_reach_what_collapses_and_flips_cannot() {
     let ellipsoid = shapes::ellipsoid(1.0, 0.7, 0.5, 5, 0.0, 1).unwrap();
     let bunny = shared_mesh("organic/cgal_bunny00.off");
     let fandisk = shared_mesh("cad/cgal_fandisk_large.off");
-    let rel = |target: f64| IsotropicParams {
-        target,
-        ..Default::default()
-    };
+    // Only where no input vertex near a split ends farther than 0.15 L (or than before).
     for (name, input, params, floor, angle, reach) in [
         ("ellipsoid", &ellipsoid, abs(0.05), 0.888, 30.0, 0.04),
         ("sphere", &sphere, abs(0.06), 0.88, 30.0, 0.025),
@@ -1129,25 +1145,8 @@ fn vertex_splits_reach_what_collapses_and_flips_cannot() {
         // Every sharp edge kept: the ladders of its creases pin needles (17.25° before).
         ("fandisk_large", &fandisk, rel(0.02), 0.545, 18.0, 0.15),
     ] {
-        let r = isotropic(input, None, &params, Par::Rayon).unwrap();
-        let out = &r.mesh;
-        assert_manifold(out);
-        let splits = r.report.num("valence_splits").unwrap();
-        assert!(splits > 0.0, "{name}: no vertex split for the valences");
-        let share = valence6_share(out);
-        assert!(share > floor, "{name}: valence-6 share {share:.4}");
-        let lo = min_angle_deg(out);
-        assert!(lo >= angle, "{name}: min angle {lo:.2}°");
-        // Only where no input vertex near the split ends farther than 0.15 L (or than before).
-        let l = r.report.num("target_abs").unwrap();
-        let far = farthest_input_vertex(input, out) / l;
-        eprintln!(
-            "{name}: {splits} splits, valence 6 {share:.4}, min angle {lo:.2}°, far {far:.4} L"
-        );
-        assert!(
-            far < reach,
-            "{name}: an input vertex is {far:.4} L from the output"
-        );
+        let bounds = (floor, angle, reach);
+        assert_valence_step(name, input, &params, "valence_splits", bounds);
     }
 }
 
