@@ -37,8 +37,8 @@ for (mesh, s), r in sorted(rep.items()):
     for name, curves in [("none", None), ("thresholded", "check_thresholded"), ("conforming", "check")]:
         q = r.get("quality_" + name, {})
         c = r.get(curves, {}) if curves else {}
-        ce = c.get("edges", 0) if curves else 0
-        cv = c.get("violations", "") if curves else ""
+        ce = int(c.get("edges", 0)) if curves else 0
+        cv = int(c["violations"]) if curves and "violations" in c else ""
         print(f"| {mesh} | {s} | {name} | {ce} | {cv} | {q.get('vertices', float('nan')):.0f} | "
               f"{q.get('hausdorff_rel', float('nan')):.5f} | {q.get('min_angle_deg', float('nan')):.2f} | "
               f"{100*q.get('frac_angles_lt_30', float('nan')):.2f} % | {100*q.get('valence6_share', float('nan')):.1f} % |")
