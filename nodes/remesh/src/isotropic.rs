@@ -37,7 +37,10 @@
 //!    along their chain, see below); with `relaxation: Lloyd`, to the centroid of its Voronoi
 //!    cell instead (the part of each incident triangle nearer to it than to the other two
 //!    corners, with the middle of the longest side in place of the circumcentre of an obtuse
-//!    triangle), in every round but the last;
+//!    triangle), in every round but the last. A closed part collapsed to a tetrahedron (four
+//!    vertices of valence 3) is drawn together by these moves, to a single point on a coarse
+//!    part or toward a fixed vertex: there no move may bring a vertex within 0.5 L of a
+//!    neighbour and closer than it was;
 //! 5. projection onto the input surface: a walk over the input triangles from the face the
 //!    vertex was last projected onto, to a local minimum of the distance, with the exact
 //!    closest point of a BVH as the fallback ([`crate::project`]; the start face is kept
@@ -3510,8 +3513,10 @@ impl State<'_> {
                             let mut s = [0.0; 3];
                             let mut nsum = [0.0; 3];
                             let mut w = 0.0;
+                            let mut degree = 0;
                             if lloyd {
                                 for k in he.outgoing(v) {
+                                    degree += 1;
                                     // The corners after v, in the face's order.
                                     let a = he.position(he.to(k));
                                     let b = he.position(he.to(halfedge::next(k)));
@@ -3523,6 +3528,7 @@ impl State<'_> {
                                 }
                             } else {
                                 for k in he.outgoing(v) {
+                                    degree += 1;
                                     let (nf, c, a) = face_value(halfedge::face_of(k));
                                     nsum = vec3::add(nsum, nf);
                                     s = vec3::add(s, c);
@@ -3536,6 +3542,9 @@ impl State<'_> {
                             } else {
                                 p
                             };
+                            if degree == 3 && shrinks_tetrahedron(he, v, q, 0.5 * far) {
+                                return (p, hint[v as usize], 0);
+                            }
                             if project {
                                 let r = proj.project(q, hint[v as usize], far);
                                 (r.hit.point, r.hit.face, 1 + r.fallback as u8)
@@ -3795,6 +3804,27 @@ fn keeps_orientation(n_old: V3, t: [V3; 3], cos_max: f64) -> bool {
     ln2 > 1e-24 * lo2 && dot >= 0.0 && dot * dot >= cos_max * cos_max * lo2 * ln2
 }
 
+/// Whether `v` is a vertex of a tetrahedron (a closed part collapsed to four vertices of
+/// valence 3, which no collapse can reduce further) whose move to `q` would bring it within
+/// `floor` of a neighbour, and closer than it is. Tangential relaxation pulls each vertex of
+/// such a part toward the other three: on a smooth sphere that settles into a regular
+/// tetrahedron, but on a coarse small part, or with one vertex fixed, it draws all four to one
+/// point (small closed parts of a CAD assembly remeshed at a target about their size ended
+/// so). Below the floor no move may shorten a vertex's shortest edge.
+fn shrinks_tetrahedron(he: &HalfEdgeMesh, v: u32, q: V3, floor: f64) -> bool {
+    let valence3 = |u: u32| !he.is_boundary_vertex(u) && he.valence(u) == 3;
+    if !(valence3(v) && he.outgoing(v).all(|k| valence3(he.to(k)))) {
+        return false;
+    }
+    let nearest = |x: V3| {
+        he.outgoing(v)
+            .map(|k| vec3::dist(x, he.position(he.to(k))))
+            .fold(f64::INFINITY, f64::min)
+    };
+    let near_q = nearest(q);
+    near_q < floor && near_q < nearest(he.position(v))
+}
+
 /// Squared distance from `x` to the nearest of the triangles `tris` (infinite for none).
 fn dist2_to_triangles(x: V3, tris: impl IntoIterator<Item = [V3; 3]>) -> f64 {
     tris.into_iter()
@@ -3831,7 +3861,7 @@ pub struct IsotropicNode;
 impl NodeKind for IsotropicNode {
     type Params = IsotropicParams;
     const KIND: &'static str = "remesh.isotropic";
-    const VERSION: u32 = 34;
+    const VERSION: u32 = 35;
     const DOC: &'static str = "Isotropic remeshing at a target edge length (Botsch & Kobbelt \
         2004, thesis §5.1.1): splits > 4/3 L, collapses < 4/5 L, valence-improving flips, \
         tangential relaxation (relaxation: Centroids, or Lloyd for Voronoi-cell centroids and \

@@ -1694,6 +1694,51 @@ fn a_cap_beside_a_tip_of_valence_three_loses_its_middle_vertex() {
 }
 
 #[test]
+fn small_closed_parts_end_as_tetrahedra_not_points() {
+    // trimesh_cycloidal (an assembly: gears, pins and about a hundred balls of 23 vertices,
+    // each about 1.1 L across at 2 %) along its scale-conforming sharp edges. Each ball
+    // collapses to a tetrahedron, which no collapse can reduce further; relaxation then drew
+    // three of them onto one point (triangles of 0°). Now no move brings a tetrahedron's vertex
+    // within 0.5 L of a neighbour and closer than it was: 46 tetrahedra, the smallest
+    // angle of any 35.0°.
+    let input = shared_mesh_repaired("cad/trimesh_cycloidal.ply");
+    let (_, _, network) = conforming_sharp_edges(&input, 0.02, 0.02);
+    let out = isotropic(&input, Some(&network), &curves_only(0.02), Par::Rayon).unwrap();
+    let mesh = out.mesh;
+    let mut valence = vec![0usize; mesh.n_vertices()];
+    for t in &mesh.triangles {
+        for &v in t {
+            valence[v as usize] += 1;
+        }
+    }
+    // A tetrahedron's four faces: every corner of valence 3 (closed, so faces = valence).
+    let tetra_faces: Vec<&[u32; 3]> = mesh
+        .triangles
+        .iter()
+        .filter(|t| t.iter().all(|&v| valence[v as usize] == 3))
+        .collect();
+    assert!(tetra_faces.len() >= 40 * 4, "{} faces", tetra_faces.len());
+    let lo = tetra_faces
+        .iter()
+        .flat_map(|t| {
+            let p = t.map(|v| mesh.positions[v as usize]);
+            (0..3).map(move |i| {
+                corner_angle(
+                    vec3::sub(p[(i + 1) % 3], p[i]),
+                    vec3::sub(p[(i + 2) % 3], p[i]),
+                )
+                .to_degrees()
+            })
+        })
+        .fold(180.0f64, f64::min);
+    eprintln!(
+        "cycloidal at 2 %: {} tetrahedron faces, smallest angle {lo:.2}°",
+        tetra_faces.len()
+    );
+    assert!(lo >= 30.0, "a tetrahedron's smallest angle {lo:.2}°");
+}
+
+#[test]
 fn sideways_flips_reach_curved_organic_patches() {
     // The subdivided armadillo at 1 % along its scale-conforming sharp edges: most of its
     // irregular vertices are 5–7 pairs (in the benchmark's output, 670 of its 851 valence-5
