@@ -134,7 +134,9 @@
 //! point within `boundary_tolerance` · L of it: the boundaries in a network of sharp edges) give
 //! way to it ([`crate::features::drop_curves_along_boundaries`], report
 //! `curve_edges_along_boundaries`): kept beside the resampled boundary, a curve vertex slid
-//! onto the boundary edge between two corners. How curves become mesh edges is in
+//! onto the boundary edge between two corners. A hole bounded by three edges shorter than
+//! L / 2 cannot be resampled at all; it is closed by a triangle first ([`crate::holes`],
+//! report `holes_closed`). How curves become mesh edges is in
 //! [`crate::features`]; sharp-edge chains that end freely at both ends and are shorter than
 //! `min_feature_length` target lengths are dropped (a feature below the scale, thesis §4.3).
 //! Tips narrower than L and corners of the part where creases meet ([`crate::tips`]) stay
@@ -177,6 +179,7 @@ use crate::features::{
     build_chains, drop_curves_along_boundaries, mark_boundary_corners, mark_features,
     prune_short_sharp_chains, trim_curve_ends_near, FeatureError,
 };
+use crate::holes::close_small_triangular_holes;
 use crate::project::Projector;
 use crate::tips::{clear_of_fixed, part_corners, tip_vertices};
 
@@ -476,6 +479,23 @@ fn isotropic_with(
             position: *p,
         });
     }
+    // Holes of three edges far below the target are closed first (see `holes`). The closed
+    // mesh keeps the input's vertex and face indices (the new faces come last).
+    let hole_edge = HOLE_EDGE
+        * if params.relative {
+            params.target * mesh.bbox_diagonal()
+        } else {
+            params.target
+        };
+    let closed = if mesh.topology().boundary_edge_count() > 0 {
+        close_small_triangular_holes(mesh, hole_edge)
+    } else {
+        None
+    };
+    let (mesh, holes_closed) = match &closed {
+        Some((m, k)) => (m, *k),
+        None => (mesh, 0),
+    };
     // Work on a spatially coherent numbering when the input's is not: the sweeps walk
     // one-rings in index order, and on inputs numbered in scan or subdivision order nearly
     // every walk misses the cache. A coherent numbering is kept as it is: it costs nothing
@@ -744,6 +764,7 @@ fn isotropic_with(
         .set("feature_edges_trimmed", fe.trimmed)
         .set("feature_edges_boundary", fe.boundary)
         .set("curve_edges_along_boundaries", curve_edges_along_boundaries)
+        .set("holes_closed", holes_closed)
         .set("feature_edges_from_curves", fe.from_curves)
         .set("feature_segments_unjoined", fe.segments_unjoined)
         .set("feature_edges_out", tagged)
@@ -3762,6 +3783,11 @@ const COS_SIDEWAYS_NORMALS: f64 = 0.766_044_443_118_978;
 /// moves.
 const COS_FLAT: f64 = 0.965_925_826_289_068_3;
 
+/// Holes bounded by three edges shorter than this many target lengths are closed before
+/// remeshing ([`close_small_triangular_holes`]): a triangle with one side of 0.5 L and two of
+/// L has angles of about 29°.
+const HOLE_EDGE: f64 = 0.5;
+
 /// Cosine of 30°: a triangle with an angle of 150° or more (the supplement) is a cap.
 const COS_CAP: f64 = 0.866_025_403_784_438_6;
 
@@ -3861,7 +3887,7 @@ pub struct IsotropicNode;
 impl NodeKind for IsotropicNode {
     type Params = IsotropicParams;
     const KIND: &'static str = "remesh.isotropic";
-    const VERSION: u32 = 35;
+    const VERSION: u32 = 36;
     const DOC: &'static str = "Isotropic remeshing at a target edge length (Botsch & Kobbelt \
         2004, thesis §5.1.1): splits > 4/3 L, collapses < 4/5 L, valence-improving flips, \
         tangential relaxation (relaxation: Centroids, or Lloyd for Voronoi-cell centroids and \

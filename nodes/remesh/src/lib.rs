@@ -19,6 +19,7 @@ use crestflow_flow::Registry;
 pub mod bvh;
 pub mod chain;
 pub mod features;
+pub mod holes;
 pub mod isotropic;
 pub mod project;
 pub mod prune;

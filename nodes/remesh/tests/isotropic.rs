@@ -1694,6 +1694,25 @@ fn a_cap_beside_a_tip_of_valence_three_loses_its_middle_vertex() {
 }
 
 #[test]
+fn holes_of_three_short_edges_are_closed() {
+    // cgal_ChineseDragon-10kv has two holes of three edges, each about 0.003 L across at 2 %.
+    // No collapse can shorten such a loop, so the triangles that met it had angles of
+    // 0.15–0.19°; closed by a triangle before remeshing, the surface around them is remeshed
+    // like the rest: 30.07°.
+    let input = shared_mesh_repaired("organic/cgal_ChineseDragon-10kv.off");
+    assert_eq!(input.topology().boundary_edge_count(), 6);
+    let (_, _, network) = conforming_sharp_edges(&input, 0.02, 0.02);
+    let out = isotropic(&input, Some(&network), &curves_only(0.02), Par::Rayon).unwrap();
+    assert_eq!(out.report.num("holes_closed"), Some(2.0));
+    let mesh = out.mesh;
+    assert_manifold(&mesh);
+    assert_eq!(mesh.topology().boundary_edge_count(), 0);
+    let lo = min_angle_deg(&mesh);
+    eprintln!("dragon at 2 %: min angle {lo:.2}°");
+    assert!(lo >= 30.0, "min angle {lo:.2}°");
+}
+
+#[test]
 fn small_closed_parts_end_as_tetrahedra_not_points() {
     // trimesh_cycloidal (an assembly: gears, pins and about a hundred balls of 23 vertices,
     // each about 1.1 L across at 2 %) along its scale-conforming sharp edges. Each ball
