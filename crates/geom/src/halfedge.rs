@@ -840,6 +840,28 @@ impl HalfEdgeMesh {
         }
     }
 
+    /// Collapses `h` the other way round: its target is removed and its faces join its origin,
+    /// which keeps its index and position (a boundary edge has only this one half-edge, so
+    /// [`HalfEdgeMesh::collapse`] can only remove its origin). Check
+    /// [`HalfEdgeMesh::collapse_topology_ok`] first (the link condition is the same both ways).
+    pub fn collapse_keeping_origin(&mut self, h: u32) {
+        let (a, b) = (self.from(h), self.to(h));
+        let pa = self.positions[a as usize];
+        self.collapse(h);
+        // b now holds the merged fan: a takes its place.
+        let corners_b: Vec<u32> = self.outgoing(b).collect();
+        for k in corners_b {
+            self.corner[k as usize] = a;
+        }
+        self.out[a as usize] = self.out[b as usize];
+        self.out[b as usize] = NONE;
+        self.valence[a as usize] = self.valence[b as usize];
+        self.valence[b as usize] = 0;
+        self.vertex_alive[a as usize] = true;
+        self.vertex_alive[b as usize] = false;
+        self.positions[a as usize] = pa;
+    }
+
     /// Checks every structural invariant; `Err` names the first broken one. For tests.
     pub fn check(&self) -> Result<(), String> {
         let nh = self.corner.len() as u32;

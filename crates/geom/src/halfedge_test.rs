@@ -241,6 +241,32 @@ fn collapse_keeps_invariants() {
 }
 
 #[test]
+fn a_boundary_edge_collapses_either_way() {
+    // Boundary edge 1→2 along the bottom side of a 3 × 3 grid: removing 2 into 1 (its
+    // origin) leaves the same connectivity as removing 1 into 2, with the other vertex.
+    let g = grid(3);
+    let mut he = HalfEdgeMesh::from_trimesh(&g).unwrap();
+    let h = he.find_edge(1, 2);
+    let h = if he.is_boundary_edge(h) { h } else { he.opp(h) };
+    let (a, b) = (he.from(h), he.to(h));
+    let (pa, nb) = (he.position(a), he.neighbors(b).len());
+    let na = he.neighbors(a).len();
+    assert!(he.collapse_topology_ok(h).is_ok());
+    he.collapse_keeping_origin(h);
+    he.check().unwrap();
+    assert!(he.is_vertex_alive(a) && !he.is_vertex_alive(b));
+    assert_eq!(he.position(a), pa);
+    assert!(he.is_boundary_vertex(a));
+    // The merged vertex has both fans but the edge between them and the apex counted once.
+    assert_eq!(he.valence(a), na + nb - 3);
+    assert_eq!(he.neighbors(a).len(), he.valence(a));
+    assert_eq!(he.euler_characteristic(), 1);
+    let (t, _) = he.to_trimesh();
+    assert_eq!(t.n_vertices(), 15);
+    assert_eq!(t.topology().boundary_edge_count(), 11);
+}
+
+#[test]
 fn collapse_on_boundary_and_link_condition() {
     let g = grid(3);
     let mut he = HalfEdgeMesh::from_trimesh(&g).unwrap();

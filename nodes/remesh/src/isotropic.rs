@@ -65,7 +65,10 @@
 //! edge just over 4/3 L, goes. A cap (an angle of 150° or more) whose shortest side fails the link
 //! condition, as beside a fixed tip of valence 3, loses its middle vertex along one of its other
 //! two sides instead, where both vertices' old places stay within 0.1 L of the new triangles (the
-//! subdivided armadillo at 2 % without features: 0.47° → 30.02°). Then one more flip sweep (step 3) runs, since relaxation moved the
+//! subdivided armadillo at 2 % without features: 0.47° → 30.02°). A boundary edge has one
+//! half-edge, and a collapse removes its origin; where that is refused, the sliver collapses
+//! also try removing its target into its origin (a boundary chain vertex beside a boundary
+//! corner). Then one more flip sweep (step 3) runs, since relaxation moved the
 //! vertices, and a free vertex of a triangle still below 30° moves to the best of a few nearby
 //! positions on the input surface when that raises the smallest angle of its triangles and they
 //! stay within 15° of their mean normal (beside curved features, whose bends pin short feature
@@ -1213,12 +1216,7 @@ impl State<'_> {
     /// Where the merged vertex of collapsing `h` goes: the midpoint of two free vertices,
     /// else the target, which is at least as constrained as the origin.
     fn merged_position(&self, h: u32) -> V3 {
-        let (a, b) = (self.he.from(h), self.he.to(h));
-        if self.role[a as usize] == Role::Free && self.role[b as usize] == Role::Free {
-            vec3::lerp(self.he.position(a), self.he.position(b), 0.5)
-        } else {
-            self.he.position(b)
-        }
+        self.merged_position_into(self.he.from(h), self.he.to(h))
     }
 
     /// Whether the triangles around `v` that do not contain `other` keep their orientation
@@ -3001,6 +2999,12 @@ impl State<'_> {
                 pick = self.cap_apex_collapse(f, stretch2);
             }
             let Some(pick) = pick else {
+                // A boundary edge has one half-edge: its target can go into its origin only
+                // this way (a boundary chain vertex beside a boundary corner).
+                if g == NONE && self.collapse_into_origin_allowed(h, stretch2) {
+                    self.apply_merge(h, true, &mut touched);
+                    any = true;
+                }
                 continue;
             };
             self.apply_collapse(pick, &mut touched);
@@ -3050,13 +3054,60 @@ impl State<'_> {
         })
     }
 
+    /// [`Self::collapse_allowed_with`] (improving) for boundary half-edge `h` the other way
+    /// round: its target `a` removed into its origin `b`.
+    fn collapse_into_origin_allowed(&self, h: u32, stretch2: f64) -> bool {
+        let (b, a) = (self.he.from(h), self.he.to(h));
+        if !self.removable_into(h, a, b)
+            || (self.he.tag(halfedge::next(h)) != NONE && self.he.tag(halfedge::prev(h)) != NONE)
+        {
+            return false;
+        }
+        let p = self.merged_position_into(a, b);
+        let chain = matches!(self.role[a as usize], Role::Chain(_));
+        let hm = self.size[a as usize].min(self.size[b as usize]);
+        let mut new = -1.0;
+        self.lengths_ok(a, p, hm, chain, stretch2)
+            && self.lengths_ok(b, p, hm, chain, stretch2)
+            && self.collapse_topology_ok(h)
+            && self.fan_ok(a, b, p, &mut new)
+            && self.fan_ok(b, a, p, &mut new)
+            && new
+                < self
+                    .fan_min_angle_cos(a, NONE)
+                    .max(self.fan_min_angle_cos(b, NONE))
+    }
+
+    /// Where `a` and `b` meet when `a` goes into `b`: their middle between two free vertices,
+    /// else `b`.
+    fn merged_position_into(&self, a: u32, b: u32) -> V3 {
+        if self.role[a as usize] == Role::Free && self.role[b as usize] == Role::Free {
+            vec3::lerp(self.he.position(a), self.he.position(b), 0.5)
+        } else {
+            self.he.position(b)
+        }
+    }
+
     /// Collapses `pick` into its target, which takes the merged position and the smaller
     /// local target length, and marks the target as touched in this sweep.
     fn apply_collapse(&mut self, pick: u32, touched: &mut [bool]) {
-        let (a, b) = (self.he.from(pick), self.he.to(pick));
-        let p = self.merged_position(pick);
+        self.apply_merge(pick, false, touched);
+    }
+
+    /// [`Self::apply_collapse`], or with `into_origin` the other way round: the target of
+    /// boundary half-edge `h` goes into its origin ([`Self::collapse_into_origin_allowed`]).
+    fn apply_merge(&mut self, h: u32, into_origin: bool, touched: &mut [bool]) {
+        let (mut a, mut b) = (self.he.from(h), self.he.to(h));
+        if into_origin {
+            std::mem::swap(&mut a, &mut b);
+        }
+        let p = self.merged_position_into(a, b);
         self.size[b as usize] = self.size[a as usize].min(self.size[b as usize]);
-        self.he.collapse(pick);
+        if into_origin {
+            self.he.collapse_keeping_origin(h);
+        } else {
+            self.he.collapse(h);
+        }
         self.he.set_position(b, p);
         touched[b as usize] = true;
         self.collapses += 1;
@@ -3887,7 +3938,7 @@ pub struct IsotropicNode;
 impl NodeKind for IsotropicNode {
     type Params = IsotropicParams;
     const KIND: &'static str = "remesh.isotropic";
-    const VERSION: u32 = 36;
+    const VERSION: u32 = 37;
     const DOC: &'static str = "Isotropic remeshing at a target edge length (Botsch & Kobbelt \
         2004, thesis §5.1.1): splits > 4/3 L, collapses < 4/5 L, valence-improving flips, \
         tangential relaxation (relaxation: Centroids, or Lloyd for Voronoi-cell centroids and \

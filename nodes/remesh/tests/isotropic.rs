@@ -8,7 +8,7 @@ use crestflow_geom::mesh::corner_angle;
 use crestflow_geom::vec3::{self, V3};
 use crestflow_geom::{shapes, FeatureCurveNetwork, TriMesh};
 use crestflow_nodes_remesh::bvh::Bvh;
-use crestflow_nodes_remesh::{isotropic, IsotropicParams, Relaxation, RemeshError};
+use crestflow_nodes_remesh::{isotropic, IsotropicParams, Relaxation, RemeshError, RemeshOutput};
 
 fn abs(target: f64) -> IsotropicParams {
     IsotropicParams {
@@ -1693,6 +1693,29 @@ fn a_cap_beside_a_tip_of_valence_three_loses_its_middle_vertex() {
     assert!(lo >= 30.0, "min angle {lo:.2}°");
 }
 
+/// `input` remeshed at `scale` along its sharp edges made scale conforming (pruned at the same
+/// scale), as the benchmark's scale-conforming rows are.
+fn remeshed_along_conforming_sharp_edges(input: &TriMesh, scale: f64) -> RemeshOutput {
+    let (_, _, network) = conforming_sharp_edges(input, scale, scale);
+    isotropic(input, Some(&network), &curves_only(scale), Par::Rayon).unwrap()
+}
+
+#[test]
+fn a_boundary_vertex_beside_a_boundary_corner_goes_into_it() {
+    // cgal_blade along its scale-conforming sharp edges at 2 %: a boundary chain vertex 0.01 L
+    // from a boundary corner made a triangle of 1.00°. A boundary edge has one half-edge,
+    // from the corner to the chain vertex here, and a collapse removes a half-edge's origin:
+    // the corner, which may not go. The sliver collapses now also remove the target into the
+    // origin (`HalfEdgeMesh::collapse_keeping_origin`): 19.92°.
+    let input = shared_mesh_repaired("cad/cgal_blade.off");
+    let out = remeshed_along_conforming_sharp_edges(&input, 0.02);
+    let mesh = out.mesh;
+    assert_manifold(&mesh);
+    let lo = min_angle_deg(&mesh);
+    eprintln!("blade at 2 %: min angle {lo:.2}°");
+    assert!(lo >= 19.0, "min angle {lo:.2}°");
+}
+
 #[test]
 fn holes_of_three_short_edges_are_closed() {
     // cgal_ChineseDragon-10kv has two holes of three edges, each about 0.003 L across at 2 %.
@@ -1701,8 +1724,7 @@ fn holes_of_three_short_edges_are_closed() {
     // like the rest: 30.07°.
     let input = shared_mesh_repaired("organic/cgal_ChineseDragon-10kv.off");
     assert_eq!(input.topology().boundary_edge_count(), 6);
-    let (_, _, network) = conforming_sharp_edges(&input, 0.02, 0.02);
-    let out = isotropic(&input, Some(&network), &curves_only(0.02), Par::Rayon).unwrap();
+    let out = remeshed_along_conforming_sharp_edges(&input, 0.02);
     assert_eq!(out.report.num("holes_closed"), Some(2.0));
     let mesh = out.mesh;
     assert_manifold(&mesh);
@@ -1721,8 +1743,7 @@ fn small_closed_parts_end_as_tetrahedra_not_points() {
     // within 0.5 L of a neighbour and closer than it was: 46 tetrahedra, the smallest
     // angle of any 35.0°.
     let input = shared_mesh_repaired("cad/trimesh_cycloidal.ply");
-    let (_, _, network) = conforming_sharp_edges(&input, 0.02, 0.02);
-    let out = isotropic(&input, Some(&network), &curves_only(0.02), Par::Rayon).unwrap();
+    let out = remeshed_along_conforming_sharp_edges(&input, 0.02);
     let mesh = out.mesh;
     let mut valence = vec![0usize; mesh.n_vertices()];
     for t in &mesh.triangles {
