@@ -240,14 +240,23 @@ fn collapse_keeps_invariants() {
     assert!(t.topology().nonmanifold_edges.is_empty());
 }
 
+/// The half-edge of the boundary edge between vertices 1 and 2 (the bottom side) of a grid.
+fn bottom_boundary_halfedge(he: &HalfEdgeMesh) -> u32 {
+    let h = he.find_edge(1, 2);
+    if he.is_boundary_edge(h) {
+        h
+    } else {
+        he.opp(h)
+    }
+}
+
 #[test]
 fn a_boundary_edge_collapses_either_way() {
-    // Boundary edge 1→2 along the bottom side of a 3 × 3 grid: removing 2 into 1 (its
-    // origin) leaves the same connectivity as removing 1 into 2, with the other vertex.
+    // A boundary edge of a 3 × 3 grid collapsed the other way round: its target goes, and
+    // its origin keeps its index and position and takes both fans.
     let g = grid(3);
     let mut he = HalfEdgeMesh::from_trimesh(&g).unwrap();
-    let h = he.find_edge(1, 2);
-    let h = if he.is_boundary_edge(h) { h } else { he.opp(h) };
+    let h = bottom_boundary_halfedge(&he);
     let (a, b) = (he.from(h), he.to(h));
     let (pa, nb) = (he.position(a), he.neighbors(b).len());
     let na = he.neighbors(a).len();
@@ -270,9 +279,7 @@ fn a_boundary_edge_collapses_either_way() {
 fn collapse_on_boundary_and_link_condition() {
     let g = grid(3);
     let mut he = HalfEdgeMesh::from_trimesh(&g).unwrap();
-    // Boundary edge 1→2 along the bottom side.
-    let h = he.find_edge(1, 2);
-    let h = if he.is_boundary_edge(h) { h } else { he.opp(h) };
+    let h = bottom_boundary_halfedge(&he);
     let (a, b) = (he.from(h), he.to(h));
     he.set_tag(h, 3);
     assert!(he.collapse_ok(h, he.position(b), 1.5).is_ok());
