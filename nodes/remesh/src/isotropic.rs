@@ -1394,7 +1394,24 @@ impl State<'_> {
     /// [`Self::collapse_allowed_with`] where a collapse may leave no angle smaller than the
     /// one of cosine `cos_min` (unless a smaller one was there before).
     fn collapse_allowed_at(&self, h: u32, stretch2: f64, improve: bool, cos_min: f64) -> bool {
-        let (a, b) = (self.he.from(h), self.he.to(h));
+        self.merge_allowed(h, false, stretch2, improve, cos_min)
+    }
+
+    /// [`Self::collapse_allowed_at`] for the edge of `h`, with its origin `a` removed into its
+    /// target `b`, or with `into_origin` the other way round (a boundary edge has only this
+    /// one half-edge; see [`HalfEdgeMesh::collapse_keeping_origin`]).
+    fn merge_allowed(
+        &self,
+        h: u32,
+        into_origin: bool,
+        stretch2: f64,
+        improve: bool,
+        cos_min: f64,
+    ) -> bool {
+        let (mut a, mut b) = (self.he.from(h), self.he.to(h));
+        if into_origin {
+            std::mem::swap(&mut a, &mut b);
+        }
         if !self.removable_into(h, a, b) {
             return false;
         }
@@ -1408,7 +1425,7 @@ impl State<'_> {
                 return false;
             }
         }
-        let p = self.merged_position(h);
+        let p = self.merged_position_into(a, b);
         let chain = matches!(self.role[a as usize], Role::Chain(_));
         let hm = self.size[a as usize].min(self.size[b as usize]);
         self.lengths_ok(a, p, hm, chain, stretch2)
@@ -2669,10 +2686,7 @@ impl State<'_> {
                 {
                     continue;
                 }
-                let p = self.merged_position(h);
-                if self.merged_fan_dist2(a, b, p, self.he.position(a)) > off2
-                    || self.merged_fan_dist2(a, b, p, self.he.position(b)) > off2
-                {
+                if !self.merge_stays_within(h, off2) {
                     continue;
                 }
                 self.apply_collapse(h, &mut touched);
@@ -2959,6 +2973,15 @@ impl State<'_> {
         debug_assert_eq!(self.he.valence(m), n - (s.q - s.p) + 2);
     }
 
+    /// Whether both ends of `h` keep their old places within `√off2` of the triangles that
+    /// replace them when `h` collapses (at [`Self::merged_position`]).
+    fn merge_stays_within(&self, h: u32, off2: f64) -> bool {
+        let (a, b) = (self.he.from(h), self.he.to(h));
+        let p = self.merged_position(h);
+        self.merged_fan_dist2(a, b, p, self.he.position(a)) <= off2
+            && self.merged_fan_dist2(a, b, p, self.he.position(b)) <= off2
+    }
+
     /// Squared distance from `q` to the triangles that stay around `a` and `b` when they
     /// merge at `p` (those of the edge a–b itself go).
     fn merged_fan_dist2(&self, a: u32, b: u32, p: V3, q: V3) -> f64 {
@@ -3001,7 +3024,8 @@ impl State<'_> {
             let Some(pick) = pick else {
                 // A boundary edge has one half-edge: its target can go into its origin only
                 // this way (a boundary chain vertex beside a boundary corner).
-                if g == NONE && self.collapse_into_origin_allowed(h, stretch2) {
+                if g == NONE && self.merge_allowed(h, true, stretch2, true, COS_COLLAPSE_MIN_ANGLE)
+                {
                     self.apply_merge(h, true, &mut touched);
                     any = true;
                 }
@@ -3047,35 +3071,8 @@ impl State<'_> {
             if h == NONE || !self.collapse_allowed_with(h, stretch2, true) {
                 return false;
             }
-            let (a, b) = (self.he.from(h), self.he.to(h));
-            let m = self.merged_position(h);
-            self.merged_fan_dist2(a, b, m, self.he.position(a)) <= off2
-                && self.merged_fan_dist2(a, b, m, self.he.position(b)) <= off2
+            self.merge_stays_within(h, off2)
         })
-    }
-
-    /// [`Self::collapse_allowed_with`] (improving) for boundary half-edge `h` the other way
-    /// round: its target `a` removed into its origin `b`.
-    fn collapse_into_origin_allowed(&self, h: u32, stretch2: f64) -> bool {
-        let (b, a) = (self.he.from(h), self.he.to(h));
-        if !self.removable_into(h, a, b)
-            || (self.he.tag(halfedge::next(h)) != NONE && self.he.tag(halfedge::prev(h)) != NONE)
-        {
-            return false;
-        }
-        let p = self.merged_position_into(a, b);
-        let chain = matches!(self.role[a as usize], Role::Chain(_));
-        let hm = self.size[a as usize].min(self.size[b as usize]);
-        let mut new = -1.0;
-        self.lengths_ok(a, p, hm, chain, stretch2)
-            && self.lengths_ok(b, p, hm, chain, stretch2)
-            && self.collapse_topology_ok(h)
-            && self.fan_ok(a, b, p, &mut new)
-            && self.fan_ok(b, a, p, &mut new)
-            && new
-                < self
-                    .fan_min_angle_cos(a, NONE)
-                    .max(self.fan_min_angle_cos(b, NONE))
     }
 
     /// Where `a` and `b` meet when `a` goes into `b`: their middle between two free vertices,
@@ -3095,7 +3092,7 @@ impl State<'_> {
     }
 
     /// [`Self::apply_collapse`], or with `into_origin` the other way round: the target of
-    /// boundary half-edge `h` goes into its origin ([`Self::collapse_into_origin_allowed`]).
+    /// boundary half-edge `h` goes into its origin ([`Self::merge_allowed`]).
     fn apply_merge(&mut self, h: u32, into_origin: bool, touched: &mut [bool]) {
         let (mut a, mut b) = (self.he.from(h), self.he.to(h));
         if into_origin {
