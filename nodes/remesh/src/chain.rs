@@ -192,9 +192,16 @@ impl Chain {
     /// [`Chain::deviation`] over the stretch `(lo, hi)` (as [`Chain::interval`] and its
     /// variants give it).
     pub fn deviation_over(&self, lo: f64, hi: f64, pa: V3, pb: V3) -> f64 {
+        self.farthest_over(lo, hi, pa, pb).map_or(0.0, |(d, _)| d)
+    }
+
+    /// The chain's point strictly inside the stretch `(lo, hi)` farthest from the segment
+    /// [pa, pb] (the first of equals): its distance and parameter; `None` when no point lies
+    /// inside.
+    pub fn farthest_over(&self, lo: f64, hi: f64, pa: V3, pb: V3) -> Option<(f64, f64)> {
         let t = self.total();
         let laps = if self.closed { 2 } else { 1 };
-        let mut worst: f64 = 0.0;
+        let mut worst: Option<(f64, f64)> = None;
         for lap in 0..laps {
             let off = lap as f64 * t;
             let start = self.cum.partition_point(|&c| c + off <= lo);
@@ -203,7 +210,10 @@ impl Chain {
                     break;
                 }
                 let (q, _) = closest_on_segment(self.pts[i], pa, pb);
-                worst = worst.max(vec3::dist(q, self.pts[i]));
+                let d = vec3::dist(q, self.pts[i]);
+                if worst.is_none_or(|(w, _)| d > w) {
+                    worst = Some((d, self.wrap(self.cum[i] + off)));
+                }
             }
         }
         worst
