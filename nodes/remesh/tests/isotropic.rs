@@ -1742,7 +1742,7 @@ fn small_closed_parts_end_as_tetrahedra_not_points() {
     // three of them onto one point (triangles of 0°). Now no move brings a tetrahedron's vertex
     // within 0.5 L of a neighbour and closer than it was: 46 tetrahedra, the smallest
     // angle of any 35.0°. Since the far-point step splits edges part of the way, some balls
-    // get a fifth vertex on the far side (48 closed parts of at most six vertices, 36 of them
+    // get a split on the far side (48 closed parts of at most six vertices, 36 of them
     // tetrahedra), so the test looks at all of those: 30.01° (0.00° without the rule).
     let input = shared_mesh_repaired("cad/trimesh_cycloidal.ply");
     let out = remeshed_along_conforming_sharp_edges(&input, 0.02);
