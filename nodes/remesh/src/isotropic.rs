@@ -2065,17 +2065,11 @@ impl State<'_> {
         let ring: Vec<u32> = self.neighbor_iter(v).collect();
         let (q, q_hint) = (self.he.position(v), self.hint[v as usize]);
         let (tris, hints, faces) = self.fan_move(v, x, x_face);
-        if partway && dist2_to_triangles(pull.p, tris[1].iter().copied()) > pull.limit * pull.limit
-        {
+        if partway && !pull.within_limit_of(tris[1].iter().copied()) {
             return false;
         }
-        // A partial pull makes no trade: the bound on what the move may uncover drops to
-        // the limit itself.
-        let far_d2 = pull.far_d2;
-        if partway {
-            pull.far_d2 = far_d2.min(pull.limit * pull.limit / (FAR_TRADE * FAR_TRADE));
-        }
-        let keeps = self.replacement_keeps_distances(
+        // A partial pull makes no trade.
+        if !self.replacement_keeps_distances(
             q,
             &ring,
             q_hint,
@@ -2083,9 +2077,8 @@ impl State<'_> {
             [&hints[0], &hints[1]],
             &faces,
             pull,
-        );
-        pull.far_d2 = far_d2;
-        if !keeps {
+            !partway,
+        ) {
             return false;
         }
         self.he.set_position(v, x);
@@ -2185,6 +2178,7 @@ impl State<'_> {
                 [&hints_before, &hints_after],
                 &[h / 3, g / 3],
                 pull,
+                true,
             ) {
                 continue;
             }
@@ -2296,7 +2290,7 @@ impl State<'_> {
                 .collect();
             let after: Vec<[V3; 3]> = plan.after.iter().map(|t| t.map(x)).collect();
             let hints_after: Vec<[u32; 3]> = plan.after.iter().map(hints_of).collect();
-            if partway && dist2_to_triangles(far, after.iter().copied()) > pull.limit * pull.limit {
+            if partway && !pull.within_limit_of(after.iter().copied()) {
                 continue;
             }
             let corners: Vec<u32> = plan
@@ -2306,11 +2300,7 @@ impl State<'_> {
                 .copied()
                 .filter(|&u| u != NONE)
                 .collect();
-            let far_d2 = pull.far_d2;
-            if partway {
-                pull.far_d2 = far_d2.min(pull.limit * pull.limit / (FAR_TRADE * FAR_TRADE));
-            }
-            let keeps = self.replacement_keeps_distances(
+            if !self.replacement_keeps_distances(
                 mid,
                 &corners,
                 hint(a),
@@ -2318,9 +2308,8 @@ impl State<'_> {
                 [&hints_before, &hints_after],
                 &plan.faces,
                 pull,
-            );
-            pull.far_d2 = far_d2;
-            if !keeps {
+                !partway,
+            ) {
                 continue;
             }
             let t = self.he.tag(h);
@@ -2437,7 +2426,8 @@ impl State<'_> {
 
     /// Whether the triangles `tris[0]` (around `q`, projected from input face `q_hint`, with
     /// corners `corners`) may become `tris[1]` on the way to the far point of `pull`:
-    /// [`State::move_keeps_distances`] over the input vertices [`State::input_near`] them.
+    /// [`State::move_keeps_distances`] over the input vertices [`State::input_near`] them,
+    /// with a `trade` or without ([`FarPull::uncover_bound2`]).
     #[allow(clippy::too_many_arguments)]
     fn replacement_keeps_distances(
         &self,
@@ -2448,6 +2438,7 @@ impl State<'_> {
         hints: [&[[u32; 3]]; 2],
         faces: &[u32],
         pull: &mut FarPull<'_>,
+        trade: bool,
     ) -> bool {
         *pull.generation += 1;
         let near = self.input_near(
@@ -2468,7 +2459,7 @@ impl State<'_> {
             &near,
             pull.far_face,
             pull.limit,
-            pull.far_d2,
+            pull.uncover_bound2(trade),
             pull.input,
         )
     }
@@ -3797,6 +3788,25 @@ struct FarPull<'a> {
     input: &'a TriMesh,
     stamp: &'a mut [u32],
     generation: &'a mut u32,
+}
+
+impl FarPull<'_> {
+    /// Whether the far point lies within the limit of `tris` (what a partial pull must reach).
+    fn within_limit_of(&self, tris: impl IntoIterator<Item = [V3; 3]>) -> bool {
+        dist2_to_triangles(self.p, tris) <= self.limit * self.limit
+    }
+
+    /// The squared distance that [`State::move_keeps_distances`] divides by [`FAR_TRADE`]²
+    /// to bound what a change may uncover: the far point's own with a `trade`; without one
+    /// (a partial pull or split), at most what makes that bound the limit itself.
+    fn uncover_bound2(&self, trade: bool) -> f64 {
+        if trade {
+            self.far_d2
+        } else {
+            self.far_d2
+                .min(self.limit * self.limit / (FAR_TRADE * FAR_TRADE))
+        }
+    }
 }
 
 /// What [`State::split_toward`] would do to one edge: the triangles it replaces (`NONE` for

@@ -1693,11 +1693,13 @@ fn a_cap_beside_a_tip_of_valence_three_loses_its_middle_vertex() {
     assert!(lo >= 30.0, "min angle {lo:.2}°");
 }
 
-/// `input` remeshed at `scale` along its sharp edges made scale conforming (pruned at the same
-/// scale), as the benchmark's scale-conforming rows are.
-fn remeshed_along_conforming_sharp_edges(input: &TriMesh, scale: f64) -> RemeshOutput {
-    let (_, _, network) = conforming_sharp_edges(input, scale, scale);
-    isotropic(input, Some(&network), &curves_only(scale), Par::Rayon).unwrap()
+/// [`conforming_remesh`] (as the benchmark's scale-conforming rows are), checked to be
+/// manifold, and its smallest angle in degrees.
+fn conforming_remesh_min_angle(input: &TriMesh, scale: f64) -> (RemeshOutput, f64) {
+    let out = conforming_remesh(input, scale);
+    assert_manifold(&out.mesh);
+    let lo = min_angle_deg(&out.mesh);
+    (out, lo)
 }
 
 #[test]
@@ -1708,10 +1710,7 @@ fn a_boundary_vertex_beside_a_boundary_corner_goes_into_it() {
     // the corner, which may not go. The sliver collapses now also remove the target into the
     // origin (`HalfEdgeMesh::collapse_keeping_origin`): 19.92°.
     let input = shared_mesh_repaired("cad/cgal_blade.off");
-    let out = remeshed_along_conforming_sharp_edges(&input, 0.02);
-    let mesh = out.mesh;
-    assert_manifold(&mesh);
-    let lo = min_angle_deg(&mesh);
+    let (_, lo) = conforming_remesh_min_angle(&input, 0.02);
     eprintln!("blade at 2 %: min angle {lo:.2}°");
     assert!(lo >= 19.0, "min angle {lo:.2}°");
 }
@@ -1724,12 +1723,9 @@ fn holes_of_three_short_edges_are_closed() {
     // like the rest: 30.07°.
     let input = shared_mesh_repaired("organic/cgal_ChineseDragon-10kv.off");
     assert_eq!(input.topology().boundary_edge_count(), 6);
-    let out = remeshed_along_conforming_sharp_edges(&input, 0.02);
+    let (out, lo) = conforming_remesh_min_angle(&input, 0.02);
     assert_eq!(out.report.num("holes_closed"), Some(2.0));
-    let mesh = out.mesh;
-    assert_manifold(&mesh);
-    assert_eq!(mesh.topology().boundary_edge_count(), 0);
-    let lo = min_angle_deg(&mesh);
+    assert_eq!(out.mesh.topology().boundary_edge_count(), 0);
     eprintln!("dragon at 2 %: min angle {lo:.2}°");
     assert!(lo >= 30.0, "min angle {lo:.2}°");
 }
@@ -1745,8 +1741,7 @@ fn small_closed_parts_end_as_tetrahedra_not_points() {
     // get a split on the far side (48 closed parts of at most six vertices, 36 of them
     // tetrahedra), so the test looks at all of those: 30.01° (0.00° without the rule).
     let input = shared_mesh_repaired("cad/trimesh_cycloidal.ply");
-    let out = remeshed_along_conforming_sharp_edges(&input, 0.02);
-    let mesh = out.mesh;
+    let mesh = conforming_remesh(&input, 0.02).mesh;
     // Connected parts, by union-find over the triangles' corners.
     let mut parent: Vec<u32> = (0..mesh.n_vertices() as u32).collect();
     fn root(parent: &mut [u32], mut v: u32) -> u32 {
@@ -2204,11 +2199,9 @@ fn far_points_beyond_a_curve_chain_split_the_chain() {
 /// input vertex from it in units of L, and its smallest angle in degrees.
 fn conforming_far_and_angle(rel: &str, scale: f64) -> (RemeshOutput, f64, f64) {
     let input = shared_mesh(rel);
-    let r = conforming_remesh(&input, scale);
-    assert_manifold(&r.mesh);
+    let (r, lo) = conforming_remesh_min_angle(&input, scale);
     let l = r.report.num("target_abs").unwrap();
     let far = farthest_input_vertex(&input, &r.mesh) / l;
-    let lo = min_angle_deg(&r.mesh);
     (r, far, lo)
 }
 
