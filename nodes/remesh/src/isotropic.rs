@@ -245,7 +245,7 @@ pub struct IsotropicParams {
     /// centroid of its Voronoi cell in all rounds but the last, which makes the cells
     /// hexagonal: more vertices of valence 6 (on cgal_fandisk_large at 2 %, scale-conforming
     /// curves, 0.775 → 0.798), at the price of a few corners and tips that the last passes
-    /// then cannot repair (docs/scale-remesh.md, version 22).
+    /// then cannot repair (docs/scale-remesh-log.md, version 22).
     pub relaxation: Relaxation,
 }
 

@@ -22,7 +22,7 @@
 //! neither as one edge nor as two (with r_max = 1.5 r_min, every arc from 1.5 to 2 r_min
 //! long). The remesher splits such an edge in two, and the proximity tests treat its middle as
 //! a vertex. Dropping them loses, e.g., the corners of a tunnel 1.7 r_min deep; keeping them
-//! is off by default (see docs/scale-remesh.md for what it changes).
+//! is off by default (docs/scale-remesh-log.md, section on version 32, has what it changes).
 //!
 //! The loop stops when an iteration removes, collapses and resamples nothing (or after
 //! `max_iterations`); a final pass then removes, lightest first, any edge still violating a
