@@ -1902,7 +1902,6 @@ impl State<'_> {
                     ring.dedup();
                     order.extend(ring);
                 }
-                let mut pulled = false;
                 let mut pull = FarPull {
                     p,
                     i,
@@ -1921,40 +1920,37 @@ impl State<'_> {
                     }
                     continue;
                 }
-                if pass == 4 {
-                    if let Some(m) = self.split_toward(f, &blocked, &mut pull, true) {
-                        blocked.resize(self.he.n_vertex_slots(), false);
-                        self.block_around(&mut blocked, m);
-                        moved.push(m);
+                if pass < 3 {
+                    if let Some([c, d]) = self.flip_toward(f, &blocked, &mut pull) {
+                        for v in [c, d] {
+                            self.block_around(&mut blocked, v);
+                        }
+                        moved.extend([c, d]);
+                        continue;
                     }
-                    continue;
-                }
-                if let Some([c, d]) = self.flip_toward(f, &blocked, &mut pull) {
-                    for v in [c, d] {
+                    let mut pulled = false;
+                    for &v in &order {
+                        if !self.movable(v) {
+                            continue;
+                        }
+                        let p_face = pull.p_face;
+                        if !self.move_for_far_point(v, p, p_face, false, &mut pull) {
+                            continue;
+                        }
                         self.block_around(&mut blocked, v);
+                        moved.push(v);
+                        pulled = true;
+                        break;
                     }
-                    moved.extend([c, d]);
-                    continue;
-                }
-                for &v in &order {
-                    if !self.movable(v) {
+                    if pulled {
                         continue;
                     }
-                    let p_face = pull.p_face;
-                    if !self.move_for_far_point(v, p, p_face, false, &mut pull) {
-                        continue;
-                    }
-                    self.block_around(&mut blocked, v);
-                    moved.push(v);
-                    pulled = true;
-                    break;
                 }
-                if !pulled {
-                    if let Some(m) = self.split_toward(f, &blocked, &mut pull, false) {
-                        blocked.resize(self.he.n_vertex_slots(), false);
-                        self.block_around(&mut blocked, m);
-                        moved.push(m);
-                    }
+                // A split: on the far point in the full passes, part of the way in the last.
+                if let Some(m) = self.split_toward(f, &blocked, &mut pull, pass == 4) {
+                    blocked.resize(self.he.n_vertex_slots(), false);
+                    self.block_around(&mut blocked, m);
+                    moved.push(m);
                 }
             }
             if pass == 4 || far.is_empty() {
@@ -2237,16 +2233,13 @@ impl State<'_> {
         for &(_, _, h) in &edges {
             let (a, b) = (self.he.from(h), self.he.to(h));
             let c = self.he.tag(h);
-            let middle = if c != NONE {
-                Some(self.stretch_middle(c, a, b))
-            } else {
-                None
-            };
             if !partway {
-                tries.push((h, far, middle));
-            } else if let Some(s_mid) = middle {
+                // A chain edge's new vertex takes the stretch's middle, found once it splits.
+                tries.push((h, far, None));
+            } else if c != NONE {
                 let chain = &self.chains[c as usize];
                 let (lo, hi) = self.stretch(c, a, b);
+                let s_mid = chain.wrap(0.5 * (lo + hi));
                 let (pa, pb) = (self.he.position(a), self.he.position(b));
                 if let Some((_, s)) = chain.farthest_over(lo, hi, pa, pb) {
                     tries.push((h, chain.point_at(s), Some(s)));
@@ -2316,7 +2309,11 @@ impl State<'_> {
             // On a chain the new vertex takes the middle of the edge's stretch as its
             // parameter (or that of its place on the crease, part of the way); it sits on the
             // input, off the chain's chord, and no later step slides it.
-            let s = s.unwrap_or(0.0);
+            let s = match s {
+                Some(s) => s,
+                None if t != NONE => self.stretch_middle(t, a, b),
+                None => 0.0,
+            };
             let m = self.he.split_edge(h, p);
             self.role.push(if t != NONE {
                 Role::Chain(t)
