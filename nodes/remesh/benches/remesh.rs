@@ -3,7 +3,7 @@
 //!   cargo bench -p crestflow-nodes-remesh --bench remesh -- OUT_DIR MESH... [--targets 1,2]
 //!       [--feature-tolerance 0.002] [--boundary-tolerance 0.25] [--iterations 10] [--smoothing-steps 5]
 //!       [--feature-grading 0] [--conforming [--sharp-angle 30]] [--lloyd] [--repeats 3]
-//!       [--repair] [--special-long-edges]
+//!       [--repair] [--special-long-edges] [--conform-ratio 1]
 //!
 //! With `--conforming` (method `crestflow_conforming`) the features are not every sharp edge
 //! but the scale-conforming subset of them: `remesh.sharp_edges` pruned at the target,
@@ -13,7 +13,8 @@
 //! method's name then ends in `_A`). With `--lloyd`
 //! the remeshing runs with `relaxation: Lloyd` and the method's name ends in `_lloyd`; with
 //! `--special-long-edges`, `scale.conform` keeps special long edges and the name ends in
-//! `_long`.
+//! `_long`. `--conform-ratio F` prunes and conforms at r_min = F × the target instead (the
+//! remeshing target stays; the name ends in `_rminF`).
 //! `--repair` loads the meshes as `io.load_mesh` does with `repair: true` (non-manifold edges
 //! and vertices split, faces oriented coherently; `bench/remesh/corpus.sh`).
 //!
@@ -61,6 +62,7 @@ fn main() {
     let sharp_angle: Option<f64> = take_value(&mut args, "--sharp-angle");
     let smoothing_steps = take_value(&mut args, "--smoothing-steps").unwrap_or(d.smoothing_steps);
     let repeats = take_value(&mut args, "--repeats").unwrap_or(3usize).max(1);
+    let conform_ratio: f64 = take_value(&mut args, "--conform-ratio").unwrap_or(1.0);
     let conforming = args.iter().any(|a| a == "--conforming");
     args.retain(|a| a != "--conforming");
     let lloyd = args.iter().any(|a| a == "--lloyd");
@@ -114,12 +116,12 @@ fn main() {
                 ..Default::default()
             };
             let sharp_params = SharpEdgesParams {
-                prune_scale: pct / 100.0,
+                prune_scale: conform_ratio * pct / 100.0,
                 angle_deg: sharp_angle.unwrap_or(SharpEdgesParams::default().angle_deg),
                 ..Default::default()
             };
             let conform_params = ConformParams {
-                scale: pct / 100.0,
+                scale: conform_ratio * pct / 100.0,
                 special_long_edges: special_long,
                 ..Default::default()
             };
@@ -174,6 +176,11 @@ fn main() {
             };
             let method = if special_long && conforming {
                 format!("{method}_long")
+            } else {
+                method
+            };
+            let method = if conforming && conform_ratio != 1.0 {
+                format!("{method}_rmin{conform_ratio}")
             } else {
                 method
             };

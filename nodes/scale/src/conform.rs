@@ -794,7 +794,7 @@ pub struct ConformNode;
 impl NodeKind for ConformNode {
     type Params = ConformParams;
     const KIND: &'static str = "scale.conform";
-    const VERSION: u32 = 6;
+    const VERSION: u32 = 7;
     const DOC: &'static str = "Adapts a feature curve network to a prescribed scale r_min: arcs \
         resampled into edges of length in [r_min, r_max], edge and vertex conflicts detected, \
         the best conflict-free subset selected by an exact binary linear program (weights \

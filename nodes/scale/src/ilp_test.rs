@@ -2,8 +2,8 @@
 //! its answer is known to be worse.
 
 use crate::ilp::{
-    brute_force_full, feasible_full, objective, select, select_using, select_with, Backend, Method,
-    Problem,
+    brute_force_full, feasible_full, objective, select, select_searching, select_using,
+    select_with, Backend, Method, Problem, SEARCH_NODES,
 };
 use crestflow_flow::Par;
 
@@ -29,9 +29,20 @@ impl Lcg {
 /// edges, vertex conflicts among vertices of valence 1 or ≥ 3, smoothness pairs at shared
 /// vertices. At most 16 binaries in all.
 fn random_problem(seed: u64) -> Problem {
+    random_problem_sized(seed, 6, 9, 16)
+}
+
+/// [`random_problem`] with 4 to 3 + `more_vertices` vertices, 3 to 2 + `more_edges` edges and
+/// at most `binaries` edge and vertex binaries.
+fn random_problem_sized(
+    seed: u64,
+    more_vertices: u64,
+    more_edges: u64,
+    binaries: usize,
+) -> Problem {
     let mut r = Lcg(seed);
-    let nv = 4 + r.below(6) as usize;
-    let ne = 3 + r.below(9) as usize;
+    let nv = 4 + r.below(more_vertices) as usize;
+    let ne = 3 + r.below(more_edges) as usize;
     let mut edges: Vec<[u32; 2]> = Vec::new();
     while edges.len() < ne {
         let a = r.below(nv as u64) as u32;
@@ -59,7 +70,7 @@ fn random_problem(seed: u64) -> Problem {
     let mut vertex_conflicts = Vec::new();
     for x in 0..extra.len() {
         for y in x + 1..extra.len() {
-            if r.below(4) == 0 && ne + 2 * vertex_conflicts.len() + 2 <= 16 {
+            if r.below(4) == 0 && ne + 2 * vertex_conflicts.len() + 2 <= binaries {
                 vertex_conflicts.push((extra[x], extra[y]));
             }
         }
@@ -473,4 +484,75 @@ fn triples_implied_by_a_conflicting_pair_are_not_written() {
     assert_eq!(sel.keep, [false, false, false, true, true, true]);
     assert!([e3, e4].iter().all(|&e| sel.keep[e as usize]));
     assert_eq!(sel.objective, brute_force_full(&p).unwrap());
+}
+
+/// The branch and bound that takes components before the solver reaches the solver's optimum
+/// (microlp with the search turned off) and proves it: on the small random instances and on
+/// larger ones of up to 60 binaries, with short edges (4.9), vertex binaries and combined
+/// terms, one thread and the pool alike.
+#[test]
+fn search_matches_the_solver_on_random_instances() {
+    let mut larger = 0;
+    for seed in 0..160u64 {
+        let p = if seed < 80 {
+            random_problem(seed)
+        } else {
+            random_problem_sized(seed, 16, 38, 60)
+        };
+        let solver =
+            select_searching(&p, Method::Ilp, Backend::Microlp, None, Par::Seq, 0).unwrap();
+        let searched = select_searching(
+            &p,
+            Method::Ilp,
+            Backend::Microlp,
+            None,
+            Par::Seq,
+            SEARCH_NODES,
+        )
+        .unwrap();
+        assert!(
+            (searched.objective - solver.objective).abs() <= 1e-9 * solver.objective.max(1.0),
+            "seed {seed}: search {} vs solver {}",
+            searched.objective,
+            solver.objective
+        );
+        assert!(feasible_full(&p, &searched.keep, &searched.keep_vertex));
+        assert_eq!(searched.unproven, 0);
+        let pool = select_searching(
+            &p,
+            Method::Ilp,
+            Backend::Microlp,
+            None,
+            Par::Rayon,
+            SEARCH_NODES,
+        )
+        .unwrap();
+        assert_eq!(searched, pool, "seed {seed}");
+        if searched.largest_component > 20 {
+            larger += 1;
+        }
+    }
+    // The larger instances do reach components the small ones do not have.
+    assert!(
+        larger >= 20,
+        "{larger} instances with a component above 20 binaries"
+    );
+}
+
+/// A component the search cannot prove within its node budget goes to the solver: a path of
+/// 300 conflicting edges with a budget of 50 nodes still gets the path's optimum (its dynamic
+/// programme), as it does with the default budget.
+#[test]
+fn a_component_beyond_the_search_budget_goes_to_the_solver() {
+    let (p, best) = conflict_path(300);
+    for budget in [50, SEARCH_NODES] {
+        let s =
+            select_searching(&p, Method::Ilp, Backend::Microlp, None, Par::Seq, budget).unwrap();
+        assert_eq!(s.unproven, 0);
+        assert!(
+            (s.objective - best).abs() < 1e-9,
+            "budget {budget}: {} vs {best}",
+            s.objective
+        );
+    }
 }
