@@ -2552,7 +2552,16 @@ impl State<'_> {
         let mut uncovered: f64 = 0.0;
         for &k in near {
             let x = input.positions[k as usize];
-            let d_new = dist2(after, x);
+            // The nearest new triangle, stopping at the first within the limit: most input
+            // vertices near a fan are, and then which one is nearest does not matter.
+            let mut d_new = f64::INFINITY;
+            for t in after {
+                d_new = d_new
+                    .min(crestflow_geom::bvh::closest_point_on_triangle(x, t[0], t[1], t[2]).0);
+                if d_new <= limit2 {
+                    break;
+                }
+            }
             if d_new <= limit2 {
                 continue;
             }
