@@ -48,11 +48,13 @@ use crate::resample::{resample_arc, ArcPoint};
 /// How the conflict-free subset is chosen.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
 pub enum Solver {
-    /// The exact binary program (good_lp + microlp), per conflict component.
+    /// The exact binary program per conflict component: a branch and bound for the
+    /// components it proves quickly, good_lp + microlp for the others.
     #[default]
     Ilp,
-    /// The same program solved by HiGHS (only in builds with the `highs` feature, which
-    /// needs cmake and a C++ compiler; otherwise a parameter error).
+    /// The same, with HiGHS for the components the branch and bound leaves (only in builds
+    /// with the `highs` feature, which needs cmake and a C++ compiler; otherwise a parameter
+    /// error).
     Highs,
     /// Heaviest edge first, kept if it conflicts with nothing kept (a baseline).
     Greedy,

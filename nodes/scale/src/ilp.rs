@@ -28,7 +28,7 @@
 //!
 //! **Small components.** Most components of a sparse network have a few dozen binaries at
 //! most, and building and solving a model costs microlp 15–900 µs for each. A depth-first
-//! branch and bound ([`solve_search`]: constraints checked as binaries are fixed, the
+//! branch and bound (`solve_search`: constraints checked as binaries are fixed, the
 //! objective bounded by what the free binaries could still add) gets every component first,
 //! for at most [`SEARCH_NODES`] nodes; the components it does not prove by then go to the
 //! solver. On cgal_fandisk_large's sharp edges at 1 % it proves 156 of the 158 components
@@ -85,7 +85,8 @@ struct Lin {
 /// How to select.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Method {
-    /// The binary program, solved exactly (good_lp with microlp) per component.
+    /// The binary program, solved exactly per component: by a branch and bound where it
+    /// proves the optimum within [`SEARCH_NODES`] nodes, else by good_lp (microlp or HiGHS).
     Ilp,
     /// Enumeration of every assignment per component (exact; for tests, ≤ 24 binaries).
     BruteForce,
@@ -624,10 +625,11 @@ fn solve_ilp(
     solve_ilp_from(pr, comp, ci, backend, time_limit, start)
 }
 
-/// Nodes [`solve_search`] visits at most before it leaves a component to the solver: about
-/// 0.4 ms of search (the two components of cgal_fandisk_large's sharp edges at 1 % that reach
-/// it, of 26 and 58 binaries, took 0.35–0.40 ms before going to microlp).
-pub(crate) const SEARCH_NODES: usize = 20_000;
+/// Nodes the branch and bound (`solve_search`) visits at most before it leaves a component
+/// to the solver: about 0.4 ms of search (the two components of cgal_fandisk_large's sharp
+/// edges at 1 % that reach it, of 26 and 58 binaries, took 0.35–0.40 ms before going to
+/// microlp).
+pub const SEARCH_NODES: usize = 20_000;
 
 /// The exact selection of one component by depth-first branch and bound, when it takes at
 /// most `budget` nodes (else `None`). Binaries are fixed in order of their objective
