@@ -2155,7 +2155,8 @@ impl State<'_> {
             }
             let before = [[x(a), x(b), x(c)], [x(b), x(a), x(d)]];
             let after = [[x(a), x(d), x(c)], [x(b), x(c), x(d)]];
-            if dist2_to_triangles(p, after) > FAR_TRADE * FAR_TRADE * far_d2 {
+            let bound2 = FAR_TRADE * FAR_TRADE * far_d2;
+            if dist2_within(p, after, bound2) > bound2 {
                 continue;
             }
             let old = min_angle_cos(x(a), x(b), x(c)).max(min_angle_cos(x(b), x(a), x(d)));
@@ -2552,16 +2553,7 @@ impl State<'_> {
         let mut uncovered: f64 = 0.0;
         for &k in near {
             let x = input.positions[k as usize];
-            // The nearest new triangle, stopping at the first within the limit: most input
-            // vertices near a fan are, and then which one is nearest does not matter.
-            let mut d_new = f64::INFINITY;
-            for t in after {
-                d_new = d_new
-                    .min(crestflow_geom::bvh::closest_point_on_triangle(x, t[0], t[1], t[2]).0);
-                if d_new <= limit2 {
-                    break;
-                }
-            }
+            let d_new = dist2_within(x, after.iter().copied(), limit2);
             if d_new <= limit2 {
                 continue;
             }
@@ -2955,7 +2947,7 @@ impl State<'_> {
             let Some(new) = shaped(pa, pb) else {
                 continue;
             };
-            let ok = dist2_to_triangles(pv, new.iter().map(|(t, _)| *t)) <= off2
+            let ok = dist2_within(pv, new.iter().map(|(t, _)| *t), off2) <= off2
                 && self.split_keeps_input_close(v, &ring, &old, &new, input, stamp, generation);
             if ok {
                 return Some(VertexSplit {
@@ -3017,7 +3009,7 @@ impl State<'_> {
         let limit2 = limit * limit;
         near.iter().all(|&k| {
             let x = input.positions[k as usize];
-            let d_new = dist2_to_triangles(x, new.iter().map(|(t, _)| *t));
+            let d_new = dist2_within(x, new.iter().map(|(t, _)| *t), limit2);
             if d_new <= limit2 {
                 return true;
             }
@@ -3799,7 +3791,8 @@ struct FarPull<'a> {
 impl FarPull<'_> {
     /// Whether the far point lies within the limit of `tris` (what a partial pull must reach).
     fn within_limit_of(&self, tris: impl IntoIterator<Item = [V3; 3]>) -> bool {
-        dist2_to_triangles(self.p, tris) <= self.limit * self.limit
+        let limit2 = self.limit * self.limit;
+        dist2_within(self.p, tris, limit2) <= limit2
     }
 
     /// The squared distance that [`State::move_keeps_distances`] divides by [`FAR_TRADE`]²
@@ -3997,9 +3990,22 @@ fn shrinks_tetrahedron(he: &HalfEdgeMesh, v: u32, q: V3, floor: f64) -> bool {
 
 /// Squared distance from `x` to the nearest of the triangles `tris` (infinite for none).
 fn dist2_to_triangles(x: V3, tris: impl IntoIterator<Item = [V3; 3]>) -> f64 {
-    tris.into_iter()
-        .map(|t| crestflow_geom::bvh::closest_point_on_triangle(x, t[0], t[1], t[2]).0)
-        .fold(f64::INFINITY, f64::min)
+    dist2_within(x, tris, f64::NEG_INFINITY)
+}
+
+/// [`dist2_to_triangles`] for a test against `bound2`: it stops at the first triangle within
+/// `bound2`, so the answer is exact above the bound and at most `bound2` otherwise (most
+/// input points near a changed fan are within the limit, and then which triangle is nearest
+/// does not matter).
+fn dist2_within(x: V3, tris: impl IntoIterator<Item = [V3; 3]>, bound2: f64) -> f64 {
+    let mut d = f64::INFINITY;
+    for t in tris {
+        d = d.min(crestflow_geom::bvh::closest_point_on_triangle(x, t[0], t[1], t[2]).0);
+        if d <= bound2 {
+            break;
+        }
+    }
+    d
 }
 
 /// Cosine of the smallest interior angle of triangle (a, b, c) (1 when degenerate): the angle

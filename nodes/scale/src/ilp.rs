@@ -701,11 +701,7 @@ fn solve_search(
                 .map(|&(_, c)| c)
                 .sum::<f64>()
     };
-    let start_x: Vec<bool> = order.iter().map(|&k| start[k]).collect();
-    let mut best: f64 = (0..n)
-        .filter(|&t| start_x[t])
-        .map(|t| added(t, &start_x))
-        .sum();
+    let mut best = comp_objective(pr, comp, &loc, start);
     let mut best_x: Option<Vec<bool>> = None;
     let mut x = vec![false; n];
     let mut fixed = vec![0.0; rhs.len()];
