@@ -37,18 +37,17 @@
 //! ones.
 //!
 //! **Hard components.** Under a time limit (and above [`EXACT_MAX_BINARIES`] binaries in any
-//! case) a component gets [`WHOLE_TRY_S`] seconds whole; one the solver does not prove by
-//! then (dense networks: sharp edges above a few degrees on a scanned mesh) is improved window
-//! by window, each window a few dozen neighbouring binaries solved exactly with the rest fixed
-//! (large-neighbourhood search, [`Method::Windows`]).
+//! case) a component gets a budget of the solver's work whole ([`WHOLE_WORK`]; a component
+//! of more than [`WHOLE_MAX_ROWS`] rows none). One the solver does not prove by then (dense
+//! networks: sharp edges above a few degrees on a scanned mesh) is improved window by window,
+//! each window a few dozen neighbouring binaries solved exactly with the rest fixed
+//! (large-neighbourhood search, [`Method::Windows`]). The budgets count the solver's pivots,
+//! not seconds, so that the selection is the same on every machine. The time limit stays as
+//! a safety net, and a component it cuts short is counted in [`Selection::out_of_time`].
 
 use std::collections::{BTreeMap, HashSet};
 
 use crestflow_flow::Par;
-use good_lp::{
-    microlp, variable, Constraint, Expression, ProblemVariables, Solution, SolutionStatus,
-    SolverModel, Variable, WithInitialSolution, WithTimeLimit,
-};
 
 /// A selection problem over the edges of a network.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -95,7 +94,7 @@ pub enum Method {
     /// Greedy, then improved by exact solves of windows of `size` neighbouring binaries with
     /// the rest fixed (large-neighbourhood search; feasible, never worse than greedy, not
     /// proven optimal). What [`Method::Ilp`] goes on with on components it does not prove
-    /// within [`WHOLE_TRY_S`] (under a time limit, or above [`EXACT_MAX_BINARIES`]).
+    /// within [`WHOLE_WORK`] (under a time limit, or above [`EXACT_MAX_BINARIES`]).
     Windows { size: usize },
 }
 
@@ -158,8 +157,11 @@ pub struct Selection {
     pub free_edges: usize,
     /// Components whose optimum was not proven: the solver ran out of time, or the component
     /// was solved by windows ([`Method::Windows`], and [`Method::Ilp`] on components not
-    /// proven within [`WHOLE_TRY_S`]).
+    /// proven within [`WHOLE_WORK`]).
     pub unproven: usize,
+    /// Components whose solve the time limit cut short: the only ones whose selection can
+    /// depend on the machine's speed (the work budgets do not).
+    pub out_of_time: usize,
     /// The part of `objective` that no choice changes: weights of the free edges and the
     /// combined terms between two free edges. `objective − fixed_objective` is what the
     /// conflict components contribute.
@@ -604,9 +606,8 @@ fn cliques(
     (cl, covered)
 }
 
-/// The exact selection of one component. Returns the assignment and whether the solver proved
-/// it optimal (false only when `time_limit` ran out; the greedy solution is the warm start,
-/// so the result is never worse than it).
+/// The exact selection of one component within `limits`, and how the solve ended (the greedy
+/// selection is the solver's start, so the result is never worse than it).
 ///
 /// A component that [`solve_search`] proves within `search_nodes` nodes does not reach the
 /// solver.
@@ -615,14 +616,14 @@ fn solve_ilp(
     comp: &Component,
     ci: usize,
     backend: Backend,
-    time_limit: Option<f64>,
+    limits: Limits,
     search_nodes: usize,
-) -> Result<(Vec<bool>, bool), SelectError> {
+) -> Result<(Vec<bool>, Ended), SelectError> {
     let start = solve_greedy(pr, comp);
     if let Some(x) = solve_search(pr, comp, &start, search_nodes) {
-        return Ok((x, true));
+        return Ok((x, Ended::Proven));
     }
-    solve_ilp_from(pr, comp, ci, backend, time_limit, start)
+    solve_ilp_from(pr, comp, ci, backend, limits, start)
 }
 
 /// Nodes the branch and bound (`solve_search`) visits at most before it leaves a component
@@ -774,6 +775,101 @@ fn solve_search(
     Some(out)
 }
 
+/// How an exact solve ended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Ended {
+    /// Optimal, and proven so.
+    Proven,
+    /// The work budget ran out first: the best selection found, the same on any machine.
+    Budget,
+    /// The time limit ran out first: the best selection found, which depends on the machine.
+    Time,
+}
+
+/// The limits of one exact solve: work (simplex pivots times rows of the program, the
+/// budget that does not depend on the machine) and seconds (a safety net).
+#[derive(Clone, Copy, Debug, Default)]
+struct Limits {
+    work: Option<u64>,
+    seconds: Option<f64>,
+    /// Rows above which the solver is not called (its root relaxation alone would take more
+    /// than `work`): the start stays, as if the budget had run out.
+    max_rows: Option<usize>,
+}
+
+/// A component's binary program for a solver: columns `0..binaries` are the component's
+/// binaries, the others one y per combined term (0 ≤ y ≤ 1, y ≤ both ends, so that y is
+/// min(b_i, b_j) at the optimum as its coefficient is positive); every row is Σ a·col ≤ rhs.
+struct Model {
+    objective: Vec<f64>,
+    binaries: usize,
+    rows: Vec<(Vec<(usize, f64)>, f64)>,
+}
+
+impl Model {
+    fn new(pr: &Prepared, comp: &Component, loc: &BTreeMap<Var, usize>) -> Model {
+        let n = comp.vars.len();
+        let mut objective: Vec<f64> = comp
+            .vars
+            .iter()
+            .map(|&v| match v {
+                Var::Edge(e) => pr.lin[e as usize],
+                Var::Vertex(_) => 0.0,
+            })
+            .collect();
+        objective.extend(comp.pairs.iter().map(|&k| pr.pairs[k].2));
+        let mut rows = Vec::new();
+        let (cl, covered) = cliques(pr, comp, loc);
+        for q in &cl {
+            rows.push((q.iter().map(|&v| (v, 1.0)).collect(), 1.0));
+        }
+        for (t, &k) in comp.constraints.iter().enumerate() {
+            if covered[t] {
+                continue;
+            }
+            let c = &pr.constraints[k];
+            // One term per binary (a solver may reject repeats).
+            let mut terms: Vec<(usize, f64)> = c.terms.iter().map(|&(v, a)| (loc[&v], a)).collect();
+            terms.sort_by_key(|&(col, _)| col);
+            let mut merged: Vec<(usize, f64)> = Vec::with_capacity(terms.len());
+            for (col, a) in terms {
+                match merged.last_mut() {
+                    Some(last) if last.0 == col => last.1 += a,
+                    _ => merged.push((col, a)),
+                }
+            }
+            rows.push((merged, c.rhs));
+        }
+        for (t, &k) in comp.pairs.iter().enumerate() {
+            let (i, j, _) = pr.pairs[k];
+            let y = n + t;
+            rows.push((vec![(y, 1.0), (loc[&Var::Edge(i)], -1.0)], 0.0));
+            rows.push((vec![(y, 1.0), (loc[&Var::Edge(j)], -1.0)], 0.0));
+        }
+        Model {
+            objective,
+            binaries: n,
+            rows,
+        }
+    }
+
+    /// Every column's value for the binaries `x`.
+    fn columns_of(
+        &self,
+        pr: &Prepared,
+        comp: &Component,
+        loc: &BTreeMap<Var, usize>,
+        x: &[bool],
+    ) -> Vec<f64> {
+        let mut v: Vec<f64> = x.iter().map(|&b| b as u8 as f64).collect();
+        v.extend(comp.pairs.iter().map(|&k| {
+            let (i, j, _) = pr.pairs[k];
+            (x[loc[&Var::Edge(i)]] && x[loc[&Var::Edge(j)]]) as u8 as f64
+        }));
+        v
+    }
+}
+
 /// [`solve_ilp`] from the feasible selection `start`: microlp's warm start, and for both
 /// back ends the result when the solver stops without a better one.
 fn solve_ilp_from(
@@ -781,102 +877,40 @@ fn solve_ilp_from(
     comp: &Component,
     ci: usize,
     backend: Backend,
-    time_limit: Option<f64>,
+    limits: Limits,
     start: Vec<bool>,
-) -> Result<(Vec<bool>, bool), SelectError> {
+) -> Result<(Vec<bool>, Ended), SelectError> {
     let n = comp.vars.len();
     let loc = local(comp);
-    let mut vars = ProblemVariables::new();
-    let xs: Vec<Variable> = (0..n).map(|_| vars.add(variable().binary())).collect();
-    let ys: Vec<Variable> = comp
-        .pairs
-        .iter()
-        .map(|_| vars.add(variable().min(0.0).max(1.0)))
-        .collect();
-    let mut obj = Expression::from(0.0);
-    for (k, &v) in comp.vars.iter().enumerate() {
-        if let Var::Edge(e) = v {
-            obj += pr.lin[e as usize] * xs[k];
-        }
+    let model = Model::new(pr, comp, &loc);
+    if limits.max_rows.is_some_and(|m| model.rows.len() > m) {
+        return Ok((start, Ended::Budget));
     }
-    for (y, &k) in ys.iter().zip(&comp.pairs) {
-        obj += pr.pairs[k].2 * *y;
-    }
-    let mut init: Vec<(Variable, f64)> = xs
-        .iter()
-        .zip(&start)
-        .map(|(&x, &b)| (x, b as u8 as f64))
-        .collect();
-    for (y, &k) in ys.iter().zip(&comp.pairs) {
-        let (i, j, _) = pr.pairs[k];
-        let on = start[loc[&Var::Edge(i)]] && start[loc[&Var::Edge(j)]];
-        init.push((*y, on as u8 as f64));
-    }
-    let mut cons: Vec<Constraint> = Vec::new();
-    let (cl, covered) = cliques(pr, comp, &loc);
-    for q in &cl {
-        let mut e = Expression::from(0.0);
-        for &v in q {
-            e += xs[v];
-        }
-        cons.push(e.leq(1.0));
-    }
-    for (t, &k) in comp.constraints.iter().enumerate() {
-        if covered[t] {
-            continue;
-        }
-        let c = &pr.constraints[k];
-        let mut e = Expression::from(0.0);
-        for &(v, a) in &c.terms {
-            e += a * xs[loc[&v]];
-        }
-        cons.push(e.leq(c.rhs));
-    }
-    for (y, &k) in ys.iter().zip(&comp.pairs) {
-        let (i, j, _) = pr.pairs[k];
-        cons.push(Expression::from(*y).leq(xs[loc[&Var::Edge(i)]]));
-        cons.push(Expression::from(*y).leq(xs[loc[&Var::Edge(j)]]));
-    }
-    let problem = vars.maximise(obj);
     let solved = match backend {
-        Backend::Microlp => run_model(problem.using(microlp), Some(init), time_limit, cons, &xs)
-            .map(|(x, status)| (x, matches!(status, SolutionStatus::Optimal))),
-        #[cfg(feature = "highs")]
-        Backend::Highs => {
-            // One thread: components already run in parallel, and HiGHS's own threads would
-            // make the search depend on the machine. Gaps of 0: proven optimal, not within
-            // HiGHS's default 0.01 %. No warm start: with the greedy selection as its start,
-            // HiGHS called a component of 70 binaries (cgal_bunny00 at 2 %) optimal at that
-            // start, 1.5 % below microlp's optimum (right with presolve off, or without the
-            // start; without it both solvers agree on all 342 components of bench/scale).
-            let model = good_lp::solvers::highs::highs(problem)
-                .set_threads(1)
-                .set_parallel(good_lp::solvers::highs::HighsParallelType::Off)
-                .set_option("mip_rel_gap", 0.0)
-                .set_option("mip_abs_gap", 1e-9);
-            // HiGHS reports "optimal" with the gap it closed, and good_lp calls any gap above
-            // 0 a gap limit: here that means within the 1e-9 asked for, so proven.
-            run_model(model, None, time_limit, cons, &xs).map(|(x, status)| {
-                (
-                    x,
-                    matches!(status, SolutionStatus::Optimal | SolutionStatus::GapLimit),
-                )
-            })
+        Backend::Microlp => {
+            let warm = model.columns_of(pr, comp, &loc, &start);
+            run_microlp(&model, &warm, limits)
         }
+        #[cfg(feature = "highs")]
+        Backend::Highs => run_highs(&model, limits),
         #[cfg(not(feature = "highs"))]
         Backend::Highs => return Err(SelectError::Unavailable),
     };
-    let (x, proven) = match solved {
+    let (x, ended) = match solved {
         Ok(r) => r,
-        // Out of time before the solver reported a solution: keep the warm start.
-        Err(_) if time_limit.is_some() => return Ok((start, false)),
-        Err(e) => {
+        // A limited solve that fails keeps the start, as one that runs out of its budget.
+        Err(_) if limits.work.is_some() || limits.seconds.is_some() => (None, Ended::Budget),
+        Err(message) => {
             return Err(SelectError::Solver {
                 component: ci,
                 binaries: n,
-                message: e.to_string(),
+                message,
             })
         }
+    };
+    // Out of nodes or time before the solver reported a selection: keep the start.
+    let Some(x) = x else {
+        return Ok((start, ended));
     };
     if !feasible(pr, comp, &loc, &x) {
         return Err(SelectError::Solver {
@@ -885,60 +919,208 @@ fn solve_ilp_from(
             message: "the solver returned an infeasible assignment".into(),
         });
     }
-    // Never worse than the warm start (a time-limited run may stop before improving on it).
+    // Never worse than the start (a limited run may stop before improving on it).
     if comp_objective(pr, comp, &loc, &x) + 1e-9 < comp_objective(pr, comp, &loc, &start) {
-        return Ok((start, proven));
+        return Ok((start, ended));
     }
-    Ok((x, proven))
+    Ok((x, ended))
 }
 
-/// Solves `model` (from the warm start `init`, if any) under `cons`; the binaries `xs`
-/// rounded, and the solver's status.
-fn run_model<M>(
-    model: M,
-    init: Option<Vec<(Variable, f64)>>,
-    time_limit: Option<f64>,
-    cons: Vec<Constraint>,
-    xs: &[Variable],
-) -> Result<(Vec<bool>, SolutionStatus), M::Error>
-where
-    M: SolverModel + WithInitialSolution + WithTimeLimit,
-{
-    let mut model = model;
-    if let Some(init) = init {
-        model = model.with_initial_solution(init);
+/// Solves `model` with microlp from the column values `warm` (a feasible selection), within
+/// `limits`: the selection found (`None` if a limit came before any) and how the solve ended.
+/// microlp is called directly rather than through good_lp, whose wrapper offers only a time
+/// limit: microlp's node limit and pivot count are what keep a limited solve the same on
+/// every machine.
+fn run_microlp(
+    model: &Model,
+    warm: &[f64],
+    limits: Limits,
+) -> Result<(Option<Vec<bool>>, Ended), String> {
+    use microlp::{
+        ComparisonOp, OptimizationDirection, ResumeOptions, SolveOptions, TerminationReason,
+    };
+    let mut p = microlp::Problem::new(OptimizationDirection::Maximize);
+    let cols: Vec<microlp::Variable> = model
+        .objective
+        .iter()
+        .enumerate()
+        .map(|(c, &o)| {
+            if c < model.binaries {
+                p.add_binary_var(o)
+            } else {
+                p.add_var(o, (0.0, 1.0))
+            }
+        })
+        .collect();
+    for (terms, rhs) in &model.rows {
+        p.add_constraint(
+            terms.iter().map(|&(c, a)| (cols[c], a)),
+            ComparisonOp::Le,
+            *rhs,
+        );
     }
-    if let Some(t) = time_limit {
-        model = model.with_time_limit(t);
+    // The solver goes on a node at a time while the work done is below the budget: microlp
+    // counts its pivots, and a pivot costs about as much as the rows it updates.
+    let rows = model.rows.len().max(1) as u64;
+    let work = |st: microlp::Stats| (st.lp_iterations + st.nodes_solved).saturating_mul(rows);
+    let started = std::time::Instant::now();
+    let time_left = || {
+        limits
+            .seconds
+            .map(|t| seconds(t - started.elapsed().as_secs_f64()))
+    };
+    // Nodes until the budget is reached at the average work per node so far (at least one):
+    // few resumes, and the last ones a node each.
+    let next_nodes = |st: Option<microlp::Stats>| -> Option<u64> {
+        let budget = limits.work?;
+        let Some(st) = st else { return Some(1) };
+        let per_node = (work(st) / st.nodes_solved.max(1)).max(1);
+        Some((budget.saturating_sub(work(st)) / per_node).max(1))
+    };
+    let mut options = SolveOptions::default();
+    options.node_limit = next_nodes(None);
+    options.time_limit = time_left();
+    options.warm_start = Some(cols.iter().copied().zip(warm.iter().copied()).collect());
+    let mut out = p.solve_with(options).map_err(|e| e.to_string())?;
+    while out.termination_reason() == TerminationReason::NodeLimit
+        && limits.work.is_some_and(|w| work(out.stats()) < w)
+    {
+        let mut more = ResumeOptions::default();
+        more.node_limit = next_nodes(Some(out.stats()));
+        more.time_limit = time_left();
+        out = out.resume_with(more).map_err(|e| e.to_string())?;
     }
-    for c in cons {
-        model = model.with(c);
+    let ended = match out.termination_reason() {
+        TerminationReason::ProvenOptimal => Ended::Proven,
+        TerminationReason::TimeLimit => Ended::Time,
+        _ => Ended::Budget,
+    };
+    let x = out.solution().map(|s| {
+        cols[..model.binaries]
+            .iter()
+            .map(|&v| s.var_value(v) > 0.5)
+            .collect()
+    });
+    Ok((x, ended))
+}
+
+/// A non-negative number of seconds as a duration (clamped; limits are validated finite).
+fn seconds(s: f64) -> std::time::Duration {
+    std::time::Duration::try_from_secs_f64(s.max(0.0)).unwrap_or(std::time::Duration::MAX)
+}
+
+/// Solves `model` with HiGHS (through good_lp) on one thread. One thread: components already
+/// run in parallel, and HiGHS's own threads would make the search depend on the machine. Gaps
+/// of 0: proven optimal, not within HiGHS's default 0.01 %. No warm start: with the greedy
+/// selection as its start, HiGHS called a component of 70 binaries (cgal_bunny00 at 2 %)
+/// optimal at that start, 1.5 % below microlp's optimum (right with presolve off, or without
+/// the start; without it both solvers agree on all 342 components of bench/scale).
+#[cfg(feature = "highs")]
+fn run_highs(model: &Model, limits: Limits) -> Result<(Option<Vec<bool>>, Ended), String> {
+    use good_lp::solvers::highs::{highs, HighsParallelType};
+    use good_lp::{
+        variable, Expression, ProblemVariables, Solution, SolutionStatus, SolverModel,
+        WithTimeLimit,
+    };
+    let mut vars = ProblemVariables::new();
+    let cols: Vec<good_lp::Variable> = (0..model.objective.len())
+        .map(|c| {
+            if c < model.binaries {
+                vars.add(variable().binary())
+            } else {
+                vars.add(variable().min(0.0).max(1.0))
+            }
+        })
+        .collect();
+    let mut objective = Expression::from(0.0);
+    for (&o, &v) in model.objective.iter().zip(&cols) {
+        objective += o * v;
     }
-    let sol = model.solve()?;
-    Ok((
-        xs.iter().map(|&v| sol.value(v) > 0.5).collect(),
-        sol.status(),
-    ))
+    let mut problem = highs(vars.maximise(objective))
+        .set_threads(1)
+        .set_parallel(HighsParallelType::Off)
+        .set_option("mip_rel_gap", 0.0)
+        .set_option("mip_abs_gap", 1e-9);
+    // HiGHS counts no pivots across its branch and bound: its budget is in nodes, at
+    // [`HIGHS_PIVOTS_PER_NODE`] pivots each.
+    if let Some(work) = limits.work {
+        let rows = model.rows.len().max(1) as u64;
+        let nodes = (work / rows / HIGHS_PIVOTS_PER_NODE).max(1);
+        problem = problem.set_option("mip_max_nodes", nodes.min(i32::MAX as u64) as i32);
+    }
+    if let Some(t) = limits.seconds {
+        problem = problem.with_time_limit(t);
+    }
+    for (terms, rhs) in &model.rows {
+        let mut e = Expression::from(0.0);
+        for &(c, a) in terms {
+            e += a * cols[c];
+        }
+        problem = problem.with(e.leq(*rhs));
+    }
+    let started = std::time::Instant::now();
+    // HiGHS reports one status for every limit: it was the time if that is used up.
+    let limit_hit = || match limits.seconds {
+        Some(t) if started.elapsed().as_secs_f64() >= t => Ended::Time,
+        _ => Ended::Budget,
+    };
+    match problem.solve() {
+        Ok(sol) => {
+            // HiGHS reports "optimal" with the gap it closed, and good_lp calls any gap above
+            // 0 a gap limit: here that means within the 1e-9 asked for, so proven.
+            let ended = match sol.status() {
+                SolutionStatus::Optimal | SolutionStatus::GapLimit => Ended::Proven,
+                SolutionStatus::TimeLimit => limit_hit(),
+            };
+            let x = cols[..model.binaries]
+                .iter()
+                .map(|&v| sol.value(v) > 0.5)
+                .collect();
+            Ok((Some(x), ended))
+        }
+        // A limit came before any selection.
+        Err(_) if limits.work.is_some() || limits.seconds.is_some() => Ok((None, limit_hit())),
+        Err(e) => Err(e.to_string()),
+    }
 }
 
 /// [`Method::Ilp`] gives a component with more binaries than this at most
-/// [`WHOLE_TRY_S`] seconds whole even without a time limit (with one, every component);
-/// unless the solver proves it optimal by then, the rest of the time limit goes to windows of
-/// [`WINDOW`] binaries ([`Method::Windows`]) from the best selection found. Size alone does
-/// not tell: the armadillo's ridges at 1 % and 2 % make components of 2416 and 3178 binaries
-/// that the solver proves in well under a second, while its sharp edges above 15° / 10° / 5°
-/// at 2 % (5168 / 13659 / 18210 binaries) ran out of five seconds per iteration with little
-/// or nothing over greedy.
+/// [`WHOLE_WORK`] whole even without a time limit (with one, every component); unless the
+/// solver proves it optimal by then, windows of [`WINDOW`] binaries ([`Method::Windows`]) go
+/// on from the best selection found. Size alone does not tell: the armadillo's ridges at 1 %
+/// and 2 % made components of 2416 and 3178 binaries that the solver proved in well under a
+/// second, while its sharp edges above 15° / 10° / 5° at 2 % (5168 / 13659 / 18210 binaries)
+/// are not proven in a minute.
 pub const EXACT_MAX_BINARIES: usize = 2000;
 
-/// Seconds a component is given whole under a time limit (or the limit, if shorter), and
-/// one above [`EXACT_MAX_BINARIES`] binaries without one. Smaller components can be as hard:
-/// on the armadillo's sharp edges above 15° at 2 %, one of 928 binaries took microlp 49 s to
-/// prove, and its selection after 5 s was already the optimal one; above 10°, one of 967
-/// binaries was not proven in a minute.
-pub const WHOLE_TRY_S: f64 = 5.0;
+/// Work (simplex pivots times rows of the program) the solver is given for a component whole
+/// under a time limit, and for one above [`EXACT_MAX_BINARIES`] binaries without one. A budget
+/// of work, unlike one of seconds, ends at the same selection on every machine. On a
+/// two-core machine of 2026 this is 1–6 s: the pivot-rows of microlp took 23–113 ns on the
+/// hard components of the corpus and of dense networks (5168 binaries on the armadillo's sharp
+/// edges above 15° at 2 %: 23 ns; 2100 on trimesh_cycloidal's sharp edges at 2 %: 113 ns).
+/// Smaller components can be as hard: one of 310 binaries (trimesh_cycloidal at 2 %) took
+/// 4.5·10⁷ of this work, 5 s, to prove.
+pub const WHOLE_WORK: u64 = 50_000_000;
 
-/// Binaries per window when [`Method::Ilp`] goes on with windows ([`WHOLE_TRY_S`]):
+/// Rows of a component's program above which [`Method::Ilp`] does not give it to the solver
+/// whole but goes to windows at once. The solver's root relaxation cannot be stopped by a
+/// budget of work, and it took about rows / 2 pivots (0.4–0.8 × rows on the components
+/// below), so above this many rows it alone would cost more than [`WHOLE_WORK`]. The root
+/// took 2100 binaries and 11,526 rows (trimesh_cycloidal's sharp edges at 2 %) 9692 pivots
+/// and 11 s; 5168 binaries and 25,682 rows (armadillo_sub1's sharp edges above 15° at 2 %)
+/// 9855 pivots and 6 s; 13,659 binaries and 117,158 rows (above 10°) more than a minute.
+pub const WHOLE_MAX_ROWS: usize = 10_000;
+
+/// Work of the solver per window (after [`SEARCH_NODES`] of the search).
+pub const WINDOW_WORK: u64 = 10_000_000;
+
+/// Pivots per node of HiGHS's branch and bound, to turn a work budget into the node limit
+/// HiGHS takes: microlp took 39–530 per node on the components of [`WHOLE_WORK`]'s docs.
+#[cfg(feature = "highs")]
+const HIGHS_PIVOTS_PER_NODE: u64 = 100;
+
+/// Binaries per window when [`Method::Ilp`] goes on with windows ([`WHOLE_WORK`]):
 /// on the armadillo's sharp edges above 5° at 2 % (18k binaries, a minute's limit), windows
 /// of 30 / 60 / 120 / 300 binaries reached objectives 1.75 / 2.13 / 1.71 / 1.03 times greedy's
 /// (larger windows take longer each and were still in their first pass at the limit).
@@ -955,9 +1137,10 @@ const WINDOW_PASSES: usize = 16;
 /// binaries (grown breadth-first over shared constraints and combined terms) is solved
 /// exactly with everything else fixed, and taken where it raises the objective; passes repeat
 /// until one improves nothing. Feasible and never worse than the start; not proven optimal.
-/// Every window gets what is left of `time_limit` (for the whole component), and no window
-/// starts once it is used up; while that does not happen, the result does not depend on the
-/// machine.
+/// Every window gets `budgets.window` of the solver's work ([`WINDOW_WORK`]). `time_limit`
+/// (for the whole component) is a safety net: no window starts once it is used up, and a
+/// window solve stops at what is left of it. The second value tells whether that happened;
+/// only then does the result depend on the machine.
 ///
 /// Windows that share no constraint and no combined term do not read each other's binaries,
 /// so a window only waits for the earlier windows it touches: those of one *level* (one more
@@ -973,8 +1156,8 @@ fn solve_windows(
     time_limit: Option<f64>,
     start: Option<Vec<bool>>,
     par: Par,
-    search_nodes: usize,
-) -> Vec<bool> {
+    budgets: Budgets,
+) -> (Vec<bool>, bool) {
     let size = size.max(1);
     let started = std::time::Instant::now();
     let n = comp.vars.len();
@@ -1006,6 +1189,7 @@ fn solve_windows(
         a.sort_unstable();
         a.dedup();
     }
+    let mut out_of_time = false;
     for pass in 0..WINDOW_PASSES {
         // The pass's windows: a partition of the binaries grown from seeds in order (from the
         // other end in odd passes); it does not depend on the selection.
@@ -1058,11 +1242,16 @@ fn solve_windows(
                 Some(t) => {
                     let l = t - started.elapsed().as_secs_f64();
                     if l <= 0.0 {
-                        return x;
+                        return (x, true);
                     }
                     Some(l)
                 }
                 None => None,
+            };
+            let limits = Limits {
+                work: Some(budgets.window),
+                seconds: left,
+                max_rows: None,
             };
             let found = par.map_collect(ks.len(), |t| {
                 improve_window(
@@ -1075,11 +1264,12 @@ fn solve_windows(
                     &windows[ks[t]],
                     &x,
                     backend,
-                    left,
-                    search_nodes,
+                    limits,
+                    budgets.search,
                 )
             });
-            for (t, y) in found.into_iter().enumerate() {
+            for (t, (y, timed_out)) in found.into_iter().enumerate() {
+                out_of_time |= timed_out;
                 if let Some(y) = y {
                     for (w, &a) in windows[ks[t]].iter().enumerate() {
                         x[a] = y[w];
@@ -1092,11 +1282,12 @@ fn solve_windows(
             break;
         }
     }
-    x
+    (x, out_of_time)
 }
 
 /// Solves the binaries of `window` (local indices) exactly with the others fixed at `x`;
-/// returns the window's new binaries if they raise the objective.
+/// returns the window's new binaries if they raise the objective, and whether the solver ran
+/// out of time.
 #[allow(clippy::too_many_arguments)]
 fn improve_window(
     pr: &Prepared,
@@ -1108,9 +1299,9 @@ fn improve_window(
     window: &[usize],
     x: &[bool],
     backend: Backend,
-    time_limit: Option<f64>,
+    limits: Limits,
     search_nodes: usize,
-) -> Option<Vec<bool>> {
+) -> (Option<Vec<bool>>, bool) {
     // The window's binaries renumbered 0.. as a problem of its own: edges keep their linear
     // coefficient plus the combined terms with partners fixed at 1 outside the window;
     // constraints move the fixed binaries' part to the right-hand side.
@@ -1183,15 +1374,15 @@ fn improve_window(
     let sub_loc = local(&sub_comp);
     let before = comp_objective(&sub, &sub_comp, &sub_loc, &start);
     // A window the solver fails on keeps its part of the (feasible) selection.
-    let y = match solve_search(&sub, &sub_comp, &start, search_nodes) {
-        Some(y) => y,
-        None => {
-            solve_ilp_from(&sub, &sub_comp, ci, backend, time_limit, start)
-                .ok()?
-                .0
-        }
+    let (y, ended) = match solve_search(&sub, &sub_comp, &start, search_nodes) {
+        Some(y) => (y, Ended::Proven),
+        None => match solve_ilp_from(&sub, &sub_comp, ci, backend, limits, start) {
+            Ok(r) => r,
+            Err(_) => return (None, false),
+        },
     };
-    (comp_objective(&sub, &sub_comp, &sub_loc, &y) > before + 1e-9).then_some(y)
+    let better = comp_objective(&sub, &sub_comp, &sub_loc, &y) > before + 1e-9;
+    (better.then_some(y), ended == Ended::Time)
 }
 
 fn solve_greedy(pr: &Prepared, comp: &Component) -> Vec<bool> {
@@ -1302,9 +1493,11 @@ pub fn select(p: &Problem, method: Method, par: Par) -> Result<Selection, Select
     select_with(p, method, None, par)
 }
 
-/// [`select`] with a time limit (seconds) per component for [`Method::Ilp`]: a component
-/// whose search runs out of time keeps the best solution found (at least the greedy one) and
-/// is counted in [`Selection::unproven`].
+/// [`select`] with a time limit (seconds) per component for [`Method::Ilp`]: every
+/// component then gets work budgets ([`WHOLE_WORK`], then windows), and one not proven
+/// within them keeps the best selection found (at least the greedy one) and is counted in
+/// [`Selection::unproven`]. The time limit is a safety net on top (see
+/// [`Selection::out_of_time`]).
 pub fn select_with(
     p: &Problem,
     method: Method,
@@ -1322,68 +1515,83 @@ pub fn select_using(
     time_limit: Option<f64>,
     par: Par,
 ) -> Result<Selection, SelectError> {
-    select_searching(p, method, backend, time_limit, par, SEARCH_NODES)
+    select_searching(p, method, backend, time_limit, par, Budgets::DEFAULT)
 }
 
-/// [`select_using`] with components given to [`solve_search`] for at most `search_nodes`
-/// nodes before the solver (0: every component to the solver, as tests of the solver want).
+/// The work budgets of [`Method::Ilp`] and [`Method::Windows`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct Budgets {
+    /// Nodes of [`solve_search`] per component or window before the solver (0: every
+    /// component to the solver, as tests of the solver want).
+    pub search: usize,
+    /// The solver's work for a component whole ([`WHOLE_WORK`]).
+    pub whole: u64,
+    /// Rows of a component above which it goes to windows at once ([`WHOLE_MAX_ROWS`]).
+    pub whole_max_rows: usize,
+    /// The solver's work per window ([`WINDOW_WORK`]).
+    pub window: u64,
+}
+
+impl Budgets {
+    pub const DEFAULT: Budgets = Budgets {
+        search: SEARCH_NODES,
+        whole: WHOLE_WORK,
+        whole_max_rows: WHOLE_MAX_ROWS,
+        window: WINDOW_WORK,
+    };
+}
+
+/// [`select_using`] with other budgets (tests).
 pub(crate) fn select_searching(
     p: &Problem,
     method: Method,
     backend: Backend,
     time_limit: Option<f64>,
     par: Par,
-    search_nodes: usize,
+    budgets: Budgets,
 ) -> Result<Selection, SelectError> {
     if matches!(method, Method::Ilp | Method::Windows { .. }) && !backend.available() {
         return Err(SelectError::Unavailable);
     }
     let pr = prepare(p);
     let comps = components(p, &pr);
-    let sols: Vec<Result<(Vec<bool>, bool), SelectError>> = par.map_collect(comps.len(), |ci| {
+    // Each component's selection, and how its solve ended (`Nodes` also for greedy and for
+    // windows, which prove nothing).
+    let sols: Vec<Result<(Vec<bool>, Ended), SelectError>> = par.map_collect(comps.len(), |ci| {
         let comp = &comps[ci];
+        let windows = |time_limit: Option<f64>, size: usize, start: Option<Vec<bool>>| {
+            let (x, out_of_time) = solve_windows(
+                &pr, comp, ci, size, backend, time_limit, start, par, budgets,
+            );
+            (
+                x,
+                if out_of_time {
+                    Ended::Time
+                } else {
+                    Ended::Budget
+                },
+            )
+        };
         match method {
             Method::Ilp if time_limit.is_some() || comp.vars.len() > EXACT_MAX_BINARIES => {
                 let started = std::time::Instant::now();
-                let whole = time_limit.map_or(WHOLE_TRY_S, |t| t.min(WHOLE_TRY_S));
-                let (x, proven) = solve_ilp(&pr, comp, ci, backend, Some(whole), search_nodes)?;
-                if proven {
-                    return Ok((x, true));
+                let limits = Limits {
+                    work: Some(budgets.whole),
+                    seconds: time_limit,
+                    max_rows: Some(budgets.whole_max_rows),
+                };
+                let (x, ended) = solve_ilp(&pr, comp, ci, backend, limits, budgets.search)?;
+                if ended != Ended::Budget {
+                    return Ok((x, ended));
                 }
                 let left = time_limit.map(|t| (t - started.elapsed().as_secs_f64()).max(0.0));
                 if left == Some(0.0) {
-                    return Ok((x, false));
+                    return Ok((x, Ended::Time));
                 }
-                Ok((
-                    solve_windows(
-                        &pr,
-                        comp,
-                        ci,
-                        WINDOW,
-                        backend,
-                        left,
-                        Some(x),
-                        par,
-                        search_nodes,
-                    ),
-                    false,
-                ))
+                Ok(windows(left, WINDOW, Some(x)))
             }
-            Method::Windows { size } => Ok((
-                solve_windows(
-                    &pr,
-                    comp,
-                    ci,
-                    size,
-                    backend,
-                    time_limit,
-                    None,
-                    par,
-                    search_nodes,
-                ),
-                false,
-            )),
-            Method::Ilp => solve_ilp(&pr, comp, ci, backend, time_limit, search_nodes),
+            Method::Windows { size } => Ok(windows(time_limit, size, None)),
+            Method::Ilp => solve_ilp(&pr, comp, ci, backend, Limits::default(), budgets.search),
             Method::BruteForce => {
                 if comp.vars.len() > 24 {
                     Err(SelectError::TooLarge {
@@ -1391,10 +1599,10 @@ pub(crate) fn select_searching(
                         binaries: comp.vars.len(),
                     })
                 } else {
-                    Ok((solve_brute(&pr, comp), true))
+                    Ok((solve_brute(&pr, comp), Ended::Proven))
                 }
             }
-            Method::Greedy => Ok((solve_greedy(&pr, comp), false)),
+            Method::Greedy => Ok((solve_greedy(&pr, comp), Ended::Budget)),
         }
     });
     let ne = p.edges.len();
@@ -1405,10 +1613,14 @@ pub(crate) fn select_searching(
     let mut keep_vertex = vec![true; p.n_vertices];
     let mut largest = 0;
     let mut unproven = 0;
+    let mut out_of_time = 0;
     for (comp, sol) in comps.iter().zip(sols) {
-        let (x, proven) = sol?;
-        if matches!(method, Method::Ilp | Method::Windows { .. }) && !proven {
+        let (x, ended) = sol?;
+        if matches!(method, Method::Ilp | Method::Windows { .. }) && ended != Ended::Proven {
             unproven += 1;
+        }
+        if ended == Ended::Time {
+            out_of_time += 1;
         }
         largest = largest.max(comp.vars.len());
         for (k, &v) in comp.vars.iter().enumerate() {
@@ -1431,6 +1643,7 @@ pub(crate) fn select_searching(
         largest_component: largest,
         free_edges,
         unproven,
+        out_of_time,
         fixed_objective,
         constraints: pr.constraints.len(),
     })

@@ -3,7 +3,7 @@
 
 use crate::ilp::{
     brute_force_full, feasible_full, objective, select, select_searching, select_using,
-    select_with, Backend, Method, Problem, SEARCH_NODES,
+    select_with, Backend, Budgets, Method, Problem, SEARCH_NODES,
 };
 use crestflow_flow::Par;
 
@@ -499,15 +499,22 @@ fn search_matches_the_solver_on_random_instances() {
         } else {
             random_problem_sized(seed, 16, 38, 60)
         };
-        let solver =
-            select_searching(&p, Method::Ilp, Backend::Microlp, None, Par::Seq, 0).unwrap();
+        let solver = select_searching(
+            &p,
+            Method::Ilp,
+            Backend::Microlp,
+            None,
+            Par::Seq,
+            searching(0),
+        )
+        .unwrap();
         let searched = select_searching(
             &p,
             Method::Ilp,
             Backend::Microlp,
             None,
             Par::Seq,
-            SEARCH_NODES,
+            searching(SEARCH_NODES),
         )
         .unwrap();
         assert!(
@@ -524,7 +531,7 @@ fn search_matches_the_solver_on_random_instances() {
             Backend::Microlp,
             None,
             Par::Rayon,
-            SEARCH_NODES,
+            searching(SEARCH_NODES),
         )
         .unwrap();
         assert_eq!(searched, pool, "seed {seed}");
@@ -539,6 +546,14 @@ fn search_matches_the_solver_on_random_instances() {
     );
 }
 
+/// The default budgets with `nodes` of the search.
+fn searching(nodes: usize) -> Budgets {
+    Budgets {
+        search: nodes,
+        ..Budgets::DEFAULT
+    }
+}
+
 /// A component the search cannot prove within its node budget goes to the solver: a path of
 /// 300 conflicting edges with a budget of 50 nodes still gets the path's optimum (its dynamic
 /// programme), as it does with the default budget.
@@ -546,8 +561,15 @@ fn search_matches_the_solver_on_random_instances() {
 fn a_component_beyond_the_search_budget_goes_to_the_solver() {
     let (p, best) = conflict_path(300);
     for budget in [50, SEARCH_NODES] {
-        let s =
-            select_searching(&p, Method::Ilp, Backend::Microlp, None, Par::Seq, budget).unwrap();
+        let s = select_searching(
+            &p,
+            Method::Ilp,
+            Backend::Microlp,
+            None,
+            Par::Seq,
+            searching(budget),
+        )
+        .unwrap();
         assert_eq!(s.unproven, 0);
         assert!(
             (s.objective - best).abs() < 1e-9,
@@ -555,4 +577,82 @@ fn a_component_beyond_the_search_budget_goes_to_the_solver() {
             s.objective
         );
     }
+}
+
+/// Under a time limit, the components go to the solver with budgets of work, not seconds:
+/// with budgets of 0 (no search; the solver stops after its root relaxation and one node, in
+/// windows likewise), the components that does not settle stay unproven and go on with
+/// windows. The
+/// selection is then feasible, never below greedy, and the same on one thread and on the
+/// pool, whatever the time limit (a minute, a day) as long as it is not reached. A limit of 0
+/// seconds cuts at least those components short, and says so.
+#[test]
+fn work_budgets_give_the_same_selection_whatever_the_time_limit() {
+    let none = Budgets {
+        search: 0,
+        whole: 0,
+        whole_max_rows: usize::MAX,
+        window: 0,
+    };
+    let mut unproven = 0;
+    for seed in 0..40u64 {
+        let p = random_problem_sized(seed, 16, 38, 60);
+        let run = |limit: f64, par: Par| {
+            select_searching(&p, Method::Ilp, Backend::Microlp, Some(limit), par, none).unwrap()
+        };
+        let minute = run(60.0, Par::Seq);
+        assert_eq!(minute.out_of_time, 0, "seed {seed}");
+        assert!(feasible_full(&p, &minute.keep, &minute.keep_vertex));
+        let greedy = select(&p, Method::Greedy, Par::Seq).unwrap();
+        assert!(minute.objective >= greedy.objective - 1e-9, "seed {seed}");
+        assert_eq!(minute, run(86400.0, Par::Seq), "seed {seed}");
+        assert_eq!(minute, run(60.0, Par::Rayon), "seed {seed}");
+        let exact = select(&p, Method::Ilp, Par::Seq).unwrap();
+        assert!(minute.objective <= exact.objective + 1e-9, "seed {seed}");
+        let cut = run(0.0, Par::Seq);
+        assert!(cut.out_of_time >= minute.unproven, "seed {seed}");
+        assert!(feasible_full(&p, &cut.keep, &cut.keep_vertex));
+        unproven += minute.unproven;
+    }
+    // The budgets do stop the solver: components its first node leaves open.
+    assert!(unproven >= 5, "{unproven} unproven components");
+}
+
+/// A component whose program has more rows than `whole_max_rows` is not given to the solver
+/// whole (its root relaxation alone could take longer than the budget): it goes to windows
+/// at once, and stays unproven. With the default limit, the same 300-edge path is proven.
+#[test]
+fn a_component_with_too_many_rows_goes_to_windows_at_once() {
+    let (p, best) = conflict_path(300);
+    let run = |whole_max_rows: usize| {
+        let budgets = Budgets {
+            search: 0,
+            whole_max_rows,
+            ..Budgets::DEFAULT
+        };
+        select_searching(
+            &p,
+            Method::Ilp,
+            Backend::Microlp,
+            Some(60.0),
+            Par::Seq,
+            budgets,
+        )
+        .unwrap()
+    };
+    let windows = run(10);
+    assert_eq!((windows.unproven, windows.out_of_time), (1, 0));
+    assert!(feasible_full(&p, &windows.keep, &windows.keep_vertex));
+    assert!(
+        windows.objective >= 0.99 * best,
+        "{} vs {best}",
+        windows.objective
+    );
+    let whole = run(crate::ilp::WHOLE_MAX_ROWS);
+    assert_eq!(whole.unproven, 0);
+    assert!(
+        (whole.objective - best).abs() < 1e-9,
+        "{} vs {best}",
+        whole.objective
+    );
 }
