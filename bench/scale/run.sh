@@ -35,7 +35,7 @@ python3 - "$OUT/results.jsonl" <<'PY'
 import json, sys
 rows = [json.loads(l) for l in open(sys.argv[1]) if l.startswith("{")]
 print()
-print("| mesh | solver | scale % | input edges | input violations | resampled | conflicts (e/v) | components (largest) | kept ILP | kept greedy | objective ILP | objective greedy | on components ILP / greedy | output edges | check violations (ILP, greedy) | iterations | repaired | unproven | conform s | greedy s |")
+print("| mesh | solver | scale % | input edges | input violations | resampled | conflicts (e/v) | components (largest) | kept ILP | kept greedy | objective ILP | objective greedy | on components ILP / greedy | output edges | check violations (ILP, greedy) | iterations | repaired | unproven (out of time) | conform s | greedy s |")
 print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
 for r in rows:
     print(f"| {r['mesh']} | {r['solver']} | {r['scale_pct']} | {r['input_edges']} | {r['input_violations']} | {r['resampled_edges']} | "
@@ -43,5 +43,5 @@ for r in rows:
           f"{r['objective_ilp']:.1f} | {r['objective_greedy']:.1f} | "
           f"{r['objective_components_ilp']:.1f} / {r['objective_components_greedy']:.1f} | "
           f"{r['output_edges']} | {r['violations']}, {r['violations_greedy']} | "
-          f"{r['iterations']} | {r['repaired']} | {r['unproven']} | {r['conform_s']:.3f} | {r['conform_greedy_s']:.3f} |")
+          f"{r['iterations']} | {r['repaired']} | {r['unproven']} ({r.get('out_of_time', 0)}) | {r['conform_s']:.3f} | {r['conform_greedy_s']:.3f} |")
 PY

@@ -115,7 +115,7 @@ fn main() {
                  \"iterations\":{},\"converged\":{},\"repaired\":{},\"repaired_greedy\":{},\
                  \"violations\":{},\"violations_greedy\":{},\"seq_equals_par\":{},\
                  \"objective_components_ilp\":{:.3},\"objective_components_greedy\":{:.3},\
-                 \"unproven\":{},\"conform_s\":{t_ilp:.4},\"conform_greedy_s\":{t_gr:.4}}}",
+                 \"unproven\":{},\"out_of_time\":{},\"conform_s\":{t_ilp:.4},\"conform_greedy_s\":{t_gr:.4}}}",
                 mesh.n_vertices(),
                 s.input_edges,
                 c_in.violations(),
@@ -140,6 +140,7 @@ fn main() {
                 s.first_objective_components,
                 s.greedy_objective_components,
                 s.unproven_components,
+                s.out_of_time_components,
             );
         }
     }
