@@ -9,6 +9,8 @@
 //! cache. The numbering depends only on the mesh (ties in the curve go by the old face
 //! index), so it is the same on every run and at every thread count.
 
+use rayon::prelude::*;
+
 use crate::vec3::V3;
 use crate::{FeatureCurveNetwork, SurfacePoint, TriMesh};
 
@@ -77,6 +79,12 @@ fn spread(x: u64) -> u64 {
 /// the finite points; a non-finite coordinate counts as the box's low side), ties by index:
 /// consecutive indices are near in space. The same on every run.
 pub fn morton_order(points: &[V3]) -> Vec<u32> {
+    morton_order_with(points, false)
+}
+
+/// [`morton_order`], with the codes and the sort on the current rayon pool when `parallel`.
+/// The order is the same: no two (code, index) keys are equal, so any sort gives it.
+pub fn morton_order_with(points: &[V3], parallel: bool) -> Vec<u32> {
     let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
     for c in points.iter().filter(|c| c.iter().all(|x| x.is_finite())) {
         for k in 0..3 {
@@ -94,18 +102,21 @@ pub fn morton_order(points: &[V3]) -> Vec<u32> {
         }
     });
     // Non-finite points land in cell 0 (`as` saturates, NaN becomes 0).
-    let key = |c: &V3| -> u64 {
-        (0..3)
+    let key = |(i, c): (usize, &V3)| -> (u64, u32) {
+        let code = (0..3)
             .map(|k| spread(((c[k] - lo[k]) * scale[k]).clamp(0.0, cells) as u64) << k)
-            .fold(0, |a, b| a | b)
+            .fold(0, |a, b| a | b);
+        (code, i as u32)
     };
-    let mut order: Vec<(u64, u32)> = points
-        .iter()
-        .enumerate()
-        .map(|(i, c)| (key(c), i as u32))
-        .collect();
-    order.sort_unstable();
-    order.into_iter().map(|(_, i)| i).collect()
+    if parallel {
+        let mut order: Vec<(u64, u32)> = points.par_iter().enumerate().map(key).collect();
+        order.par_sort_unstable();
+        order.into_par_iter().map(|(_, i)| i).collect()
+    } else {
+        let mut order: Vec<(u64, u32)> = points.iter().enumerate().map(key).collect();
+        order.sort_unstable();
+        order.into_iter().map(|(_, i)| i).collect()
+    }
 }
 
 /// Median over the faces of the index distance between their first and last corner: how far
@@ -126,6 +137,12 @@ pub fn median_corner_spread(mesh: &TriMesh) -> u32 {
 /// `mesh` renumbered along a Morton curve (module docs); `None` when a face has a corner
 /// index out of range (the caller keeps the mesh as it is and reports the defect itself).
 pub fn spatially_ordered(mesh: &TriMesh) -> Option<Reordered> {
+    spatially_ordered_with(mesh, false)
+}
+
+/// [`spatially_ordered`], with the per-face and per-vertex work on the current rayon pool
+/// when `parallel` (the same numbering).
+pub fn spatially_ordered_with(mesh: &TriMesh, parallel: bool) -> Option<Reordered> {
     let nv = mesh.positions.len();
     if mesh
         .triangles
@@ -138,9 +155,15 @@ pub fn spatially_ordered(mesh: &TriMesh) -> Option<Reordered> {
         let p = t.map(|c| mesh.positions[c as usize]);
         [0, 1, 2].map(|k| (p[0][k] + p[1][k] + p[2][k]) / 3.0)
     };
-    let centroids: Vec<V3> = mesh.triangles.iter().map(centroid).collect();
-    let order = morton_order(&centroids);
+    let centroids: Vec<V3> = if parallel {
+        mesh.triangles.par_iter().map(centroid).collect()
+    } else {
+        mesh.triangles.iter().map(centroid).collect()
+    };
+    let order = morton_order_with(&centroids, parallel);
+    drop(centroids);
 
+    // The first use along the sorted faces numbers the vertices: a sequential pass.
     let mut new_vertex = vec![u32::MAX; nv];
     let mut next = 0u32;
     for &f in &order {
@@ -159,10 +182,12 @@ pub fn spatially_ordered(mesh: &TriMesh) -> Option<Reordered> {
     for (old, &new) in new_vertex.iter().enumerate() {
         positions[new as usize] = mesh.positions[old];
     }
-    let triangles = order
-        .iter()
-        .map(|&f| mesh.triangles[f as usize].map(|c| new_vertex[c as usize]))
-        .collect();
+    let renumber = |&f: &u32| mesh.triangles[f as usize].map(|c| new_vertex[c as usize]);
+    let triangles = if parallel {
+        order.par_iter().map(renumber).collect()
+    } else {
+        order.iter().map(renumber).collect()
+    };
     Some(Reordered {
         mesh: TriMesh::new(positions, triangles),
         new_vertex,
@@ -189,6 +214,7 @@ mod tests {
             [f64::NAN, 0.0, 0.0],
         ];
         assert_eq!(morton_order(&points), vec![1, 3, 0, 2]);
+        assert_eq!(morton_order_with(&points, true), vec![1, 3, 0, 2]);
     }
 
     #[test]
@@ -244,10 +270,14 @@ mod tests {
             after * 8.0 < before,
             "mean corner spread {before} -> {after}"
         );
-        // The same numbering on a second call.
+        // The same numbering on a second call, and on the pool.
         let again = spatially_ordered(&scrambled).unwrap();
         assert_eq!(again.new_vertex, r.new_vertex);
         assert_eq!(again.old_face, r.old_face);
+        let pooled = spatially_ordered_with(&scrambled, true).unwrap();
+        assert_eq!(pooled.new_vertex, r.new_vertex);
+        assert_eq!(pooled.old_face, r.old_face);
+        assert_eq!(pooled.mesh.triangles, r.mesh.triangles);
     }
 
     #[test]

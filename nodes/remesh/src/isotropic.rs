@@ -178,7 +178,7 @@ use crestflow_flow::{
 };
 use crestflow_geom::bvh::Aabb;
 use crestflow_geom::halfedge::{self, HalfEdgeError, HalfEdgeMesh, NONE};
-use crestflow_geom::locality::{median_corner_spread, spatially_ordered};
+use crestflow_geom::locality::{median_corner_spread, spatially_ordered_with};
 use crestflow_geom::vec3::{self, V3};
 use crestflow_geom::{FeatureCurveNetwork, TriMesh};
 
@@ -189,7 +189,7 @@ use crate::features::{
 };
 use crate::holes::close_small_triangular_holes;
 use crate::project::Projector;
-use crate::tips::{clear_of_fixed, part_corners, tip_vertices};
+use crate::tips::{clear_of_fixed, part_corners, tips_in, TipField};
 
 /// Parameters of `remesh.isotropic`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -513,7 +513,7 @@ fn isotropic_with(
     // sweeps treat repeated parts alike and the output keeps their symmetry.
     let original = mesh;
     let reordered = if median_corner_spread(original) > INCOHERENT_SPREAD {
-        spatially_ordered(original)
+        spatially_ordered_with(original, par == Par::Rayon)
     } else {
         None
     };
@@ -525,15 +525,21 @@ fn isotropic_with(
         Some(r) => (&r.mesh, moved_curves.as_ref()),
         None => (original, curves),
     };
-    // The half-edge structure and the input's edge table (behind the statistics below, the
-    // projector and the features) at the same time: both are a good part of the set-up.
-    let (he, (diag, mean, area)) = par.join(
+    let diag = mesh.bbox_diagonal();
+    let l = if params.relative {
+        params.target * diag
+    } else {
+        params.target
+    };
+    // The half-edge structure, the input's edge table (behind the statistics below, the
+    // projector and the features) and the angle deficits of the tip search at the same time:
+    // each is a good part of the set-up.
+    let (he, ((mean, area), tip_field)) = par.join(
         || HalfEdgeMesh::from_trimesh(mesh),
         || {
-            (
-                mesh.bbox_diagonal(),
-                mesh.mean_edge_length(),
-                mesh.total_area(),
+            par.join(
+                || (mesh.mean_edge_length(), mesh.total_area()),
+                || TipField::new(mesh, l, par),
             )
         },
     );
@@ -546,11 +552,6 @@ fn isotropic_with(
                 .unwrap_or(e)
                 .into())
         }
-    };
-    let l = if params.relative {
-        params.target * diag
-    } else {
-        params.target
     };
     if !(l >= mean / 20.0) {
         return Err(RemeshError::TargetTooSmall { target: l, mean });
@@ -596,7 +597,7 @@ fn isotropic_with(
             .map(|v| chains.is_corner[v] || chains.vertex_chain[v] != u32::MAX)
             .collect()
     };
-    let tips = tip_vertices(mesh, l, &on_feature_of(&chains), par);
+    let tips = tips_in(mesh, &tip_field, l, &on_feature_of(&chains), par);
     let tip_points: Vec<V3> = tips.iter().map(|&t| mesh.positions[t as usize]).collect();
     let chains = trim_curve_ends_near(
         mesh,
@@ -2548,23 +2549,43 @@ impl State<'_> {
         input: &TriMesh,
     ) -> bool {
         let [before, after] = tris;
-        let dist2 = |tris: &[[V3; 3]], x: V3| dist2_to_triangles(x, tris.iter().copied());
         let limit2 = limit * limit;
         let mut uncovered: f64 = 0.0;
+        // Most near points lie beyond the limit of both fans (the points are gathered in
+        // balls around the fan's centre, the fans cover less): a triangle whose box is
+        // beyond the limit (with a margin for rounding) cannot hold a point within it, and
+        // its exact distance is computed only where the answer needs it.
+        let boxes =
+            |tris: &[[V3; 3]]| -> Vec<Aabb> { tris.iter().map(|t| Aabb::around(t)).collect() };
+        let (boxes_before, boxes_after) = (boxes(before), boxes(after));
+        let beyond2 = limit2 * (1.0 + 1e-9);
+        let within = |tris: &[[V3; 3]], boxes: &[Aabb], x: V3| {
+            tris.iter().zip(boxes).any(|(t, b)| {
+                b.dist2(x) <= beyond2
+                    && crestflow_geom::bvh::closest_point_on_triangle(x, t[0], t[1], t[2]).0
+                        <= limit2
+            })
+        };
+        let dist2 = |tris: &[[V3; 3]], x: V3| dist2_to_triangles(x, tris.iter().copied());
         for &k in near {
             let x = input.positions[k as usize];
-            let d_new = dist2_within(x, after.iter().copied(), limit2);
-            if d_new <= limit2 {
+            if within(after, &boxes_after, x) {
                 continue;
             }
-            let d_old = dist2(before, x);
             // Farther than the limit from the fan before: either a far point, whose own face
             // may be in the fan, or closer to some other (unmoved) face, which the move does
             // not change.
             let own_face_moves =
                 far_face[k as usize] != NONE && fan_faces.contains(&far_face[k as usize]);
-            if d_old <= limit2 || (own_face_moves && d_new > d_old) {
-                uncovered = uncovered.max(d_new);
+            if own_face_moves {
+                let d_new = dist2(after, x);
+                if d_new > dist2(before, x) {
+                    uncovered = uncovered.max(d_new);
+                    continue;
+                }
+            }
+            if within(before, &boxes_before, x) {
+                uncovered = uncovered.max(dist2(after, x));
             }
         }
         // A point the move leaves farther than the limit (or farther than before) is

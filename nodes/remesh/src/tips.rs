@@ -40,8 +40,8 @@ fn angle_at(p: &[V3; 3], k: usize) -> f64 {
 }
 
 /// Cells of side `side` over a mesh's bounding box: coordinates offset by one so that a
-/// cell's neighbours stay non-negative, packed 21 bits each into a key (clamped: a target
-/// that small was rejected before).
+/// cell's neighbours stay non-negative, packed 21 bits each into a key (clamped: a grid that
+/// fine comes only with a target the remesher rejects).
 struct Grid {
     lo: V3,
     side: f64,
@@ -59,8 +59,14 @@ impl Grid {
     }
 
     fn cell(&self, p: V3) -> [u64; 3] {
-        [0, 1, 2]
-            .map(|k| (((p[k] - self.lo[k]) / self.side).floor().max(0.0) as u64 + 1).min(0x1f_fffe))
+        // (Clamped before the offset: the field is built beside the remesher's set-up, before
+        // a target far below the input's edges is rejected.)
+        [0, 1, 2].map(|k| {
+            ((p[k] - self.lo[k]) / self.side)
+                .floor()
+                .clamp(0.0, 0x1f_fffd as f64) as u64
+                + 1
+        })
     }
 
     /// Key of the cell at offset `d - 1` (each of `d` in 0..3) from `c`.
@@ -167,45 +173,93 @@ fn ball_sum(
     total
 }
 
+/// What the tip search needs of a mesh at target length `l` before it knows which vertices
+/// are excluded: the angle deficits, and the cells of side `l / 2` whose 3×3×3 block may hold
+/// a tip. [`crate::isotropic`] builds it on the pool beside the half-edge structure.
+pub struct TipField {
+    deficit: Vec<f64>,
+    grid: Grid,
+    /// For every cell holding a vertex of positive deficit: whether the positive sums of the
+    /// block around it reach [`TIP_DEFICIT`].
+    hot: CellMap<bool>,
+}
+
+impl TipField {
+    /// The field of `mesh` at target length `l` (empty when `l` is not a positive length).
+    pub fn new(mesh: &TriMesh, l: f64, par: Par) -> TipField {
+        let grid = Grid::new(mesh, 0.5 * l);
+        if !(l > 0.0 && l.is_finite()) || mesh.n_vertices() == 0 {
+            return TipField {
+                deficit: Vec::new(),
+                grid,
+                hot: CellMap::default(),
+            };
+        }
+        let deficit = angle_deficits(mesh, par);
+        // A ball of radius l/2 around a vertex lies in the 3×3×3 block of cells of side l/2
+        // around the vertex's cell. Blocks whose cells' positive sums stay below the
+        // threshold hold no tip (within a cell, the deficits of a noisy but smooth surface
+        // cancel), so the ball sums run only in the other blocks' centre cells: a few
+        // vertices of a large mesh.
+        let key = |c: [u64; 3]| Grid::key(c, [1, 1, 1]);
+        let mut cells: CellMap<f64> = CellMap::default();
+        for (v, &d) in deficit.iter().enumerate() {
+            if d != 0.0 {
+                *cells
+                    .entry(key(grid.cell(mesh.positions[v])))
+                    .or_insert(0.0) += d;
+            }
+        }
+        // The blocks around the cells of positive vertices, each on its own (in key order:
+        // the same map at any thread count).
+        let mut centres: Vec<[u64; 3]> = deficit
+            .iter()
+            .zip(&mesh.positions)
+            .filter(|(&d, _)| d > 0.0)
+            .map(|(_, &p)| grid.cell(p))
+            .collect();
+        centres.sort_unstable_by_key(|&c| key(c));
+        centres.dedup();
+        let block_may_hold_a_tip = |c: [u64; 3]| {
+            let sum: f64 = Grid::block(c)
+                .map(|k| cells.get(&k).copied().unwrap_or(0.0).max(0.0))
+                .sum();
+            sum >= TIP_DEFICIT
+        };
+        let flags = par.map_collect(centres.len(), |i| block_may_hold_a_tip(centres[i]));
+        let hot = centres.iter().map(|&c| key(c)).zip(flags).collect();
+        TipField { deficit, grid, hot }
+    }
+}
+
 /// The tips of `mesh` at target length `l`, ascending: vertices (not `excluded`) whose disk
 /// of radius `l / 2` holds an angle deficit of at least [`TIP_DEFICIT`], the largest first,
 /// none within `l` of a tip already taken.
 pub fn tip_vertices(mesh: &TriMesh, l: f64, excluded: &[bool], par: Par) -> Vec<u32> {
+    tips_in(mesh, &TipField::new(mesh, l, par), l, excluded, par)
+}
+
+/// [`tip_vertices`] from the mesh's [`TipField`] at `l`.
+pub fn tips_in(mesh: &TriMesh, field: &TipField, l: f64, excluded: &[bool], par: Par) -> Vec<u32> {
     let n = mesh.n_vertices();
     if !(l > 0.0 && l.is_finite()) || n == 0 {
         return Vec::new();
     }
-    let deficit = angle_deficits(mesh, par);
-    // A ball of radius l/2 around a vertex lies in the 3×3×3 block of cells of side l/2
-    // around the vertex's cell. Blocks whose cells' positive sums stay below the threshold
-    // hold no tip (within a cell, the deficits of a noisy but smooth surface cancel), so the
-    // ball sums run only in the other blocks' centre cells: a few vertices of a large mesh.
-    let grid = Grid::new(mesh, 0.5 * l);
-    let cell_of = |p: V3| grid.cell(p);
+    let deficit = &field.deficit;
     let key = |c: [u64; 3]| Grid::key(c, [1, 1, 1]);
-    let mut cells: CellMap<f64> = CellMap::default();
-    for (v, &d) in deficit.iter().enumerate() {
-        if d != 0.0 {
-            *cells.entry(key(cell_of(mesh.positions[v]))).or_insert(0.0) += d;
-        }
-    }
-    let mut hot: CellMap<bool> = CellMap::default();
-    let mut block_may_hold_a_tip = |c: [u64; 3]| {
-        *hot.entry(key(c)).or_insert_with(|| {
-            let mut sum = 0.0;
-            for k in Grid::block(c) {
-                sum += cells.get(&k).copied().unwrap_or(0.0).max(0.0);
-            }
-            sum >= TIP_DEFICIT
-        })
-    };
     // Only a vertex that closes the surface itself can be the centre of a tip; the ball sums
     // are computed for those, in fixed chunks each with its own scratch.
     let candidates: Vec<u32> = (0..n as u32)
         .filter(|&v| {
             deficit[v as usize] > 0.0
                 && !excluded.get(v as usize).copied().unwrap_or(false)
-                && block_may_hold_a_tip(cell_of(mesh.positions[v as usize]))
+                && field
+                    .hot
+                    .get(&key(field.grid.cell(mesh.positions[v as usize])))
+                    .copied()
+                    // (Every cell of a positive vertex is in the map; a missing one would
+                    // only cost its ball sums.)
+                    .unwrap_or(true)
         })
         .collect();
     const CHUNK: usize = 4096;
@@ -218,7 +272,7 @@ pub fn tip_vertices(mesh: &TriMesh, l: f64, excluded: &[bool], par: Par) -> Vec<
             .filter_map(|(i, &v)| {
                 let s = ball_sum(
                     mesh,
-                    &deficit,
+                    deficit,
                     v,
                     0.5 * l,
                     &mut stamp,
@@ -245,7 +299,7 @@ pub fn tip_vertices(mesh: &TriMesh, l: f64, excluded: &[bool], par: Par) -> Vec<
         }
         ball_sum(
             mesh,
-            &deficit,
+            deficit,
             v,
             0.5 * l,
             &mut stamp,
