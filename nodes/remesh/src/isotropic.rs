@@ -189,7 +189,7 @@ use crate::features::{
 };
 use crate::holes::close_small_triangular_holes;
 use crate::project::Projector;
-use crate::tips::{clear_of_fixed, part_corners, tips_in, TipField};
+use crate::tips::{clear_of_fixed, part_corners, TipField};
 
 /// Parameters of `remesh.isotropic`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -597,7 +597,7 @@ fn isotropic_with(
             .map(|v| chains.is_corner[v] || chains.vertex_chain[v] != u32::MAX)
             .collect()
     };
-    let tips = tips_in(mesh, &tip_field, l, &on_feature_of(&chains), par);
+    let tips = tip_field.tips(mesh, &on_feature_of(&chains), par);
     let tip_points: Vec<V3> = tips.iter().map(|&t| mesh.positions[t as usize]).collect();
     let chains = trim_curve_ends_near(
         mesh,
@@ -2578,13 +2578,11 @@ impl State<'_> {
             let own_face_moves =
                 far_face[k as usize] != NONE && fan_faces.contains(&far_face[k as usize]);
             if own_face_moves {
-                let d_new = dist2(after, x);
-                if d_new > dist2(before, x) {
+                let (d_new, d_old) = (dist2(after, x), dist2(before, x));
+                if d_old <= limit2 || d_new > d_old {
                     uncovered = uncovered.max(d_new);
-                    continue;
                 }
-            }
-            if within(before, &boxes_before, x) {
+            } else if within(before, &boxes_before, x) {
                 uncovered = uncovered.max(dist2(after, x));
             }
         }

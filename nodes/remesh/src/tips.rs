@@ -173,26 +173,35 @@ fn ball_sum(
     total
 }
 
+/// The tips of `mesh` at target length `l`, ascending: vertices (not `excluded`) whose disk
+/// of radius `l / 2` holds an angle deficit of at least [`TIP_DEFICIT`], the largest first,
+/// none within `l` of a tip already taken.
+pub fn tip_vertices(mesh: &TriMesh, l: f64, excluded: &[bool], par: Par) -> Vec<u32> {
+    TipField::new(mesh, l, par).tips(mesh, excluded, par)
+}
+
 /// What the tip search needs of a mesh at target length `l` before it knows which vertices
-/// are excluded: the angle deficits, and the cells of side `l / 2` whose 3×3×3 block may hold
-/// a tip. [`crate::isotropic`] builds it on the pool beside the half-edge structure.
+/// are excluded: the angle deficits, and which vertices lie in a cell of side `l / 2` whose
+/// 3×3×3 block may hold a tip. [`crate::isotropic`] builds it on the pool beside the
+/// half-edge structure, then asks for the tips once the features are known
+/// ([`TipField::tips`]).
 pub struct TipField {
+    l: f64,
     deficit: Vec<f64>,
-    grid: Grid,
-    /// For every cell holding a vertex of positive deficit: whether the positive sums of the
-    /// block around it reach [`TIP_DEFICIT`].
-    hot: CellMap<bool>,
+    /// Per vertex: a positive deficit, in a cell whose block's positive sums reach
+    /// [`TIP_DEFICIT`].
+    may_be_centre: Vec<bool>,
 }
 
 impl TipField {
     /// The field of `mesh` at target length `l` (empty when `l` is not a positive length).
     pub fn new(mesh: &TriMesh, l: f64, par: Par) -> TipField {
-        let grid = Grid::new(mesh, 0.5 * l);
-        if !(l > 0.0 && l.is_finite()) || mesh.n_vertices() == 0 {
+        let n = mesh.n_vertices();
+        if !(l > 0.0 && l.is_finite()) || n == 0 {
             return TipField {
+                l,
                 deficit: Vec::new(),
-                grid,
-                hot: CellMap::default(),
+                may_be_centre: Vec::new(),
             };
         }
         let deficit = angle_deficits(mesh, par);
@@ -201,22 +210,21 @@ impl TipField {
         // threshold hold no tip (within a cell, the deficits of a noisy but smooth surface
         // cancel), so the ball sums run only in the other blocks' centre cells: a few
         // vertices of a large mesh.
+        let grid = Grid::new(mesh, 0.5 * l);
         let key = |c: [u64; 3]| Grid::key(c, [1, 1, 1]);
+        let cell: Vec<[u64; 3]> = mesh.positions.iter().map(|&p| grid.cell(p)).collect();
         let mut cells: CellMap<f64> = CellMap::default();
-        for (v, &d) in deficit.iter().enumerate() {
+        for (c, &d) in cell.iter().zip(&deficit) {
             if d != 0.0 {
-                *cells
-                    .entry(key(grid.cell(mesh.positions[v])))
-                    .or_insert(0.0) += d;
+                *cells.entry(key(*c)).or_insert(0.0) += d;
             }
         }
-        // The blocks around the cells of positive vertices, each on its own (in key order:
-        // the same map at any thread count).
-        let mut centres: Vec<[u64; 3]> = deficit
+        // The block around each cell of a positive vertex, each on its own.
+        let mut centres: Vec<[u64; 3]> = cell
             .iter()
-            .zip(&mesh.positions)
-            .filter(|(&d, _)| d > 0.0)
-            .map(|(_, &p)| grid.cell(p))
+            .zip(&deficit)
+            .filter(|(_, &d)| d > 0.0)
+            .map(|(&c, _)| c)
             .collect();
         centres.sort_unstable_by_key(|&c| key(c));
         centres.dedup();
@@ -227,92 +235,86 @@ impl TipField {
             sum >= TIP_DEFICIT
         };
         let flags = par.map_collect(centres.len(), |i| block_may_hold_a_tip(centres[i]));
-        let hot = centres.iter().map(|&c| key(c)).zip(flags).collect();
-        TipField { deficit, grid, hot }
+        let hot: CellMap<bool> = centres.iter().map(|&c| key(c)).zip(flags).collect();
+        let may_be_centre = cell
+            .iter()
+            .zip(&deficit)
+            .map(|(&c, &d)| d > 0.0 && hot[&key(c)])
+            .collect();
+        TipField {
+            l,
+            deficit,
+            may_be_centre,
+        }
     }
-}
 
-/// The tips of `mesh` at target length `l`, ascending: vertices (not `excluded`) whose disk
-/// of radius `l / 2` holds an angle deficit of at least [`TIP_DEFICIT`], the largest first,
-/// none within `l` of a tip already taken.
-pub fn tip_vertices(mesh: &TriMesh, l: f64, excluded: &[bool], par: Par) -> Vec<u32> {
-    tips_in(mesh, &TipField::new(mesh, l, par), l, excluded, par)
-}
-
-/// [`tip_vertices`] from the mesh's [`TipField`] at `l`.
-pub fn tips_in(mesh: &TriMesh, field: &TipField, l: f64, excluded: &[bool], par: Par) -> Vec<u32> {
-    let n = mesh.n_vertices();
-    if !(l > 0.0 && l.is_finite()) || n == 0 {
-        return Vec::new();
-    }
-    let deficit = &field.deficit;
-    let key = |c: [u64; 3]| Grid::key(c, [1, 1, 1]);
-    // Only a vertex that closes the surface itself can be the centre of a tip; the ball sums
-    // are computed for those, in fixed chunks each with its own scratch.
-    let candidates: Vec<u32> = (0..n as u32)
-        .filter(|&v| {
-            deficit[v as usize] > 0.0
-                && !excluded.get(v as usize).copied().unwrap_or(false)
-                && field
-                    .hot
-                    .get(&key(field.grid.cell(mesh.positions[v as usize])))
-                    .copied()
-                    // (Every cell of a positive vertex is in the map; a missing one would
-                    // only cost its ball sums.)
-                    .unwrap_or(true)
-        })
-        .collect();
-    const CHUNK: usize = 4096;
-    let sums: Vec<Vec<(f64, u32)>> = par.map_collect(candidates.len().div_ceil(CHUNK), |c| {
+    /// The tips of the field's mesh (not `excluded`), as [`tip_vertices`].
+    pub fn tips(&self, mesh: &TriMesh, excluded: &[bool], par: Par) -> Vec<u32> {
+        let (l, n) = (self.l, self.may_be_centre.len());
+        if n != mesh.n_vertices() {
+            return Vec::new();
+        }
+        let deficit = &self.deficit;
+        // Only a vertex that closes the surface itself can be the centre of a tip; the ball
+        // sums are computed for those, in fixed chunks each with its own scratch.
+        let candidates: Vec<u32> = (0..n as u32)
+            .filter(|&v| {
+                self.may_be_centre[v as usize]
+                    && !excluded.get(v as usize).copied().unwrap_or(false)
+            })
+            .collect();
+        const CHUNK: usize = 4096;
+        let sums: Vec<Vec<(f64, u32)>> = par.map_collect(candidates.len().div_ceil(CHUNK), |c| {
+            let mut stamp = vec![0u32; n];
+            let mut queue = Vec::new();
+            let part = &candidates[c * CHUNK..((c + 1) * CHUNK).min(candidates.len())];
+            part.iter()
+                .enumerate()
+                .filter_map(|(i, &v)| {
+                    let s = ball_sum(
+                        mesh,
+                        deficit,
+                        v,
+                        0.5 * l,
+                        &mut stamp,
+                        i as u32 + 1,
+                        &mut queue,
+                    );
+                    (s >= TIP_DEFICIT).then_some((s, v))
+                })
+                .collect()
+        });
+        let mut found: Vec<(f64, u32)> = sums.into_iter().flatten().collect();
+        found.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+        let mut tips: Vec<u32> = Vec::new();
         let mut stamp = vec![0u32; n];
         let mut queue = Vec::new();
-        let part = &candidates[c * CHUNK..((c + 1) * CHUNK).min(candidates.len())];
-        part.iter()
-            .enumerate()
-            .filter_map(|(i, &v)| {
-                let s = ball_sum(
-                    mesh,
-                    deficit,
-                    v,
-                    0.5 * l,
-                    &mut stamp,
-                    i as u32 + 1,
-                    &mut queue,
-                );
-                (s >= TIP_DEFICIT).then_some((s, v))
-            })
-            .collect()
-    });
-    let mut found: Vec<(f64, u32)> = sums.into_iter().flatten().collect();
-    found.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
-    let mut tips: Vec<u32> = Vec::new();
-    let mut stamp = vec![0u32; n];
-    let mut queue = Vec::new();
-    for (k, (_, v)) in found.into_iter().enumerate() {
-        let p = mesh.positions[v as usize];
-        // Balls whose centre is within L of a tip taken already hold the same tip.
-        if tips
-            .iter()
-            .any(|&t| vec3::dist(mesh.positions[t as usize], p) <= l)
-        {
-            continue;
+        for (k, (_, v)) in found.into_iter().enumerate() {
+            let p = mesh.positions[v as usize];
+            // Balls whose centre is within L of a tip taken already hold the same tip.
+            if tips
+                .iter()
+                .any(|&t| vec3::dist(mesh.positions[t as usize], p) <= l)
+            {
+                continue;
+            }
+            ball_sum(
+                mesh,
+                deficit,
+                v,
+                0.5 * l,
+                &mut stamp,
+                u32::MAX - k as u32,
+                &mut queue,
+            );
+            let apex = apex_of(mesh, &queue);
+            if !excluded.get(apex as usize).copied().unwrap_or(false) && !tips.contains(&apex) {
+                tips.push(apex);
+            }
         }
-        ball_sum(
-            mesh,
-            deficit,
-            v,
-            0.5 * l,
-            &mut stamp,
-            u32::MAX - k as u32,
-            &mut queue,
-        );
-        let apex = apex_of(mesh, &queue);
-        if !excluded.get(apex as usize).copied().unwrap_or(false) && !tips.contains(&apex) {
-            tips.push(apex);
-        }
+        tips.sort_unstable();
+        tips
     }
-    tips.sort_unstable();
-    tips
 }
 
 /// `vertices` without those within 4/5 `l` of a `fixed` vertex (see [`part_corners`]).
