@@ -76,6 +76,28 @@ impl Par {
         }
     }
 
+    /// Runs `f(start, part)` on the consecutive parts of `data` of `chunk` elements (the last
+    /// may be shorter; `start` is the index of its first element), in parallel when `self` is
+    /// `Rayon`. `chunk` is at least 1.
+    pub fn for_each_chunk_mut<T, F>(self, data: &mut [T], chunk: usize, f: F)
+    where
+        T: Send,
+        F: Fn(usize, &mut [T]) + Sync + Send,
+    {
+        use rayon::prelude::*;
+        let chunk = chunk.max(1);
+        match self {
+            Par::Seq => data
+                .chunks_mut(chunk)
+                .enumerate()
+                .for_each(|(i, part)| f(i * chunk, part)),
+            Par::Rayon => data
+                .par_chunks_mut(chunk)
+                .enumerate()
+                .for_each(|(i, part)| f(i * chunk, part)),
+        }
+    }
+
     /// Runs `f` on every index of `0..n`, in parallel when `self` is `Rayon` (for tasks that
     /// write disjoint parts of a shared output).
     pub fn for_each<F>(self, n: usize, f: F)

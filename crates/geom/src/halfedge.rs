@@ -15,7 +15,7 @@
 //! Deleted faces and vertices stay in the arrays until [`HalfEdgeMesh::to_trimesh`] compacts
 //! them ("garbage collection").
 
-use crate::mesh::TriMesh;
+use crate::mesh::{TriMesh, NO_FACE};
 use crate::vec3::{self, V3};
 
 /// "No half-edge / no vertex / no tag".
@@ -122,39 +122,40 @@ impl HalfEdgeMesh {
         }
         let corner: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
         let nh = corner.len();
-        // Directed half-edges sorted by (min, max, h): twins become neighbours.
-        let keys = crate::mesh::sorted_sides(nv, &mesh.triangles);
+        // Twins from the mesh's edge table (built here if not yet; its users, such as the
+        // remesher's feature detection, need it anyway): edges in (min, max) order, each with
+        // its first two faces in face order, so the first bad edge is the one a sort of the
+        // sides would meet first.
+        let topo = mesh.topology();
         let mut opp = vec![NONE; nh];
-        let mut i = 0;
-        while i < keys.len() {
-            let mut j = i + 1;
-            while j < keys.len() && keys[j].0 == keys[i].0 && keys[j].1 == keys[i].1 {
-                j += 1;
+        let mut nonmanifold = topo.nonmanifold_edges.iter().peekable();
+        let side = |f: u32, e: u32| {
+            let k = topo.face_edges[f as usize].iter().position(|&x| x == e);
+            3 * f + k.unwrap_or(0) as u32
+        };
+        for (e, &[a, b]) in topo.edges.iter().enumerate() {
+            let e = e as u32;
+            let faces = topo.edge_faces[e as usize];
+            if nonmanifold.next_if_eq(&&e).is_some() {
+                return Err(HalfEdgeError::NonManifoldEdge {
+                    a,
+                    b,
+                    faces: faces.map(|f| f as usize),
+                });
             }
-            let (a, b) = (keys[i].0, keys[i].1);
-            match j - i {
-                1 => {}
-                2 => {
-                    let (h, g) = (keys[i].2, keys[i + 1].2);
-                    if corner[h as usize] == corner[g as usize] {
-                        return Err(HalfEdgeError::InconsistentOrientation {
-                            a,
-                            b,
-                            faces: [face_of(h) as usize, face_of(g) as usize],
-                        });
-                    }
-                    opp[h as usize] = g;
-                    opp[g as usize] = h;
-                }
-                _ => {
-                    return Err(HalfEdgeError::NonManifoldEdge {
-                        a,
-                        b,
-                        faces: [face_of(keys[i].2) as usize, face_of(keys[i + 1].2) as usize],
-                    })
-                }
+            if faces[1] == NO_FACE {
+                continue;
             }
-            i = j;
+            let (h, g) = (side(faces[0], e), side(faces[1], e));
+            if corner[h as usize] == corner[g as usize] {
+                return Err(HalfEdgeError::InconsistentOrientation {
+                    a,
+                    b,
+                    faces: faces.map(|f| f as usize),
+                });
+            }
+            opp[h as usize] = g;
+            opp[g as usize] = h;
         }
         let mut m = HalfEdgeMesh {
             positions: mesh.positions.clone(),
@@ -348,6 +349,10 @@ impl HalfEdgeMesh {
     #[inline]
     pub fn set_position(&mut self, v: u32, p: V3) {
         self.positions[v as usize] = p;
+    }
+    /// Every vertex slot's position, to move many vertices at once.
+    pub fn positions_mut(&mut self) -> &mut [V3] {
+        &mut self.positions
     }
     pub fn positions(&self) -> &[V3] {
         &self.positions
