@@ -41,7 +41,11 @@ fn for_each_chunk_mut_hands_out_every_part_once_with_its_start() {
                     *x += start + i + 1;
                 }
             });
-            assert_eq!(data, (1..=1000).collect::<Vec<_>>(), "{par:?}, chunk {chunk}");
+            assert_eq!(
+                data,
+                (1..=1000).collect::<Vec<_>>(),
+                "{par:?}, chunk {chunk}"
+            );
         }
     }
     let mut empty: Vec<u8> = Vec::new();

@@ -555,11 +555,10 @@ fn isotropic_with(
     } else {
         params.target
     };
-    // The half-edge structure, the input's edge table (behind the statistics below, the
-    // projector and the features) and the angle deficits of the tip search at the same time:
-    // each is a good part of the set-up.
-    // The half-edge build also builds the mesh's edge table, which the mean edge length and
-    // the tips' boundary test read: those wait for it, the tips' angles do not.
+    // The half-edge structure with the input's edge table (which it builds, and which the
+    // statistics below, the projector and the features read), beside the tip search's field:
+    // each is a good part of the set-up. The field's boundary test waits for the edge table,
+    // its angle deficits do not.
     let ((he, (mean, area)), tip_field) = par.join(
         || {
             let he = HalfEdgeMesh::from_trimesh(mesh);
@@ -847,9 +846,10 @@ impl State<'_> {
     ///
     /// Without renumbering, compaction keeps the order of the live elements, and every sweep
     /// skips deleted slots, so it changes no decision; it is skipped while few slots are
-    /// deleted (at most 1/32 of the vertex and of the face slots, and no live vertex without
-    /// a face, which compaction would drop). Later rounds collapse a few edges each, and
-    /// their compactions cost more than the deleted slots they remove.
+    /// deleted (at most 1/32 of the vertex and of the face slots), unless the live count
+    /// still holds vertices without a face (unused input vertices), which compaction drops
+    /// and which would otherwise count towards the renumbering above. Later rounds collapse a
+    /// few edges each, and their compactions cost more than the deleted slots they remove.
     fn compact(&mut self) {
         let live = self.he.n_live_vertices();
         let renumber = 2 * live > 3 * self.numbered_vertices;
@@ -858,7 +858,9 @@ impl State<'_> {
             && 32 * (vertex_slots - live) <= vertex_slots
             && 32 * (face_slots - self.he.n_live_faces()) <= face_slots
             && (0..vertex_slots as u32)
-                .all(|v| !self.he.is_vertex_alive(v) || self.he.outgoing(v).next().is_some())
+                .filter(|&v| self.he.is_vertex_alive(v))
+                .count()
+                == live
         {
             self.numbered_vertices = self.numbered_vertices.min(live);
             return;
@@ -3780,9 +3782,10 @@ impl State<'_> {
             self.projections += (k > 0) as usize;
             self.fallbacks += (k > 1) as usize;
         }
-        // The new places are written on the pool too: written by one thread after the other
-        // had read them, the positions took as long as a third of the step (fandisk_large at
-        // 2 %: 3.2 ms of the run's relaxation on two threads against 0.7 ms on one).
+        // The new places are written on the pool too: copied on the calling thread after a
+        // parallel step, they took 3.2 ms of fandisk_large's relaxation at 2 % on two threads
+        // against 0.7 ms on one (the cause was not found; reading the results alone took
+        // 0.2 ms).
         const CHUNK: usize = 2048;
         par.for_each_chunk_mut(self.he.positions_mut(), CHUNK, |start, part| {
             for (p, &(q, f, _)) in part.iter_mut().zip(&moved[start..]) {
@@ -3874,7 +3877,9 @@ impl State<'_> {
             let t = to.unwrap_or(s);
             let p = ch.point_at(t);
             debug_assert!(
-                !same || (known.to.to_bits() == t.to_bits() && known.p == p),
+                !same
+                    || (known.to.to_bits() == t.to_bits()
+                        && known.p.map(f64::to_bits) == p.map(f64::to_bits)),
                 "a chain vertex's slide differs from the one computed before"
             );
             slid.push((v, p));

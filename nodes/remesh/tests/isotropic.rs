@@ -188,6 +188,24 @@ fn sequential_and_parallel_runs_agree_bit_for_bit() {
     assert_eq!(a.report, b.report);
 }
 
+/// Vertices used by no face change nothing, whether the mesh shrinks or grows (the live count
+/// that decides the renumbering must not count them; compaction drops them).
+#[test]
+fn unused_input_vertices_change_no_output() {
+    let sphere = shapes::sphere(1.0, 3).unwrap();
+    let mut padded = sphere.clone();
+    padded
+        .positions
+        .extend((0..40).map(|i| [0.01 * i as f64, 0.0, 0.0]));
+    let padded = TriMesh::new(padded.positions, padded.triangles);
+    for target in [0.2, 0.08, 0.04] {
+        let a = isotropic(&sphere, None, &abs(target), Par::Rayon).unwrap();
+        let b = isotropic(&padded, None, &abs(target), Par::Rayon).unwrap();
+        assert_eq!(a.mesh, b.mesh, "target {target}");
+        assert_eq!(b.report.num("vertices_in"), Some(682.0));
+    }
+}
+
 /// With features, chain vertices slide beside the free vertices' relaxation: one thread, the
 /// pool entered from outside, and a run already on a pool thread give the same mesh.
 #[test]
