@@ -76,6 +76,25 @@ impl Par {
         }
     }
 
+    /// [`Par::map_collect`] where `f` also gets a scratch value made by `init`: once under
+    /// `Seq`, once per piece of work rayon hands a thread under `Rayon` (a few per thread, not
+    /// one per index). `f` must not let its result depend on what the scratch held before.
+    pub fn map_init_collect<S, T, I, F>(self, n: usize, init: I, f: F) -> Vec<T>
+    where
+        T: Send,
+        I: Fn() -> S + Sync + Send,
+        F: Fn(&mut S, usize) -> T + Sync + Send,
+    {
+        use rayon::prelude::*;
+        match self {
+            Par::Seq => {
+                let mut s = init();
+                (0..n).map(|i| f(&mut s, i)).collect()
+            }
+            Par::Rayon => (0..n).into_par_iter().map_init(init, f).collect(),
+        }
+    }
+
     /// Runs `f(start, part)` on the consecutive parts of `data` of `chunk` elements (the last
     /// may be shorter; `start` is the index of its first element), in parallel when `self` is
     /// `Rayon`. `chunk` is at least 1.
@@ -95,6 +114,46 @@ impl Par {
                 .par_chunks_mut(chunk)
                 .enumerate()
                 .for_each(|(i, part)| f(i * chunk, part)),
+        }
+    }
+
+    /// Runs `f(start, part_a, part_b)` on the consecutive parts of `a` and `b` of `chunk`
+    /// elements (the same index range of each; `start` is its first index), in parallel when
+    /// `self` is `Rayon`, and collects the results in order. `a` and `b` have the same length;
+    /// `chunk` is at least 1.
+    pub fn map_chunk_pairs_mut<A, B, T, F>(
+        self,
+        a: &mut [A],
+        b: &mut [B],
+        chunk: usize,
+        f: F,
+    ) -> Vec<T>
+    where
+        A: Send,
+        B: Send,
+        T: Send,
+        F: Fn(usize, &mut [A], &mut [B]) -> T + Sync + Send,
+    {
+        use rayon::prelude::*;
+        assert_eq!(
+            a.len(),
+            b.len(),
+            "map_chunk_pairs_mut: slices of different lengths"
+        );
+        let chunk = chunk.max(1);
+        match self {
+            Par::Seq => a
+                .chunks_mut(chunk)
+                .zip(b.chunks_mut(chunk))
+                .enumerate()
+                .map(|(i, (pa, pb))| f(i * chunk, pa, pb))
+                .collect(),
+            Par::Rayon => a
+                .par_chunks_mut(chunk)
+                .zip(b.par_chunks_mut(chunk))
+                .enumerate()
+                .map(|(i, (pa, pb))| f(i * chunk, pa, pb))
+                .collect(),
         }
     }
 

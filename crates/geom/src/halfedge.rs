@@ -177,12 +177,20 @@ impl HalfEdgeMesh {
                 m.out[v as usize] = h;
             }
         }
-        // Manifold vertices: the fan swept from `out` holds every corner of the vertex.
+        // Manifold vertices: the fan swept from `out` holds every corner of the vertex. The
+        // same sweep counts the vertex's edges (as `walk_valence`).
+        let mut valence = vec![0u32; nv];
         for v in 0..nv as u32 {
             if m.out[v as usize] == NONE {
                 continue;
             }
-            let fan = m.outgoing(v).count() as u32;
+            let (mut fan, mut last) = (0u32, NONE);
+            for h in m.outgoing(v) {
+                fan += 1;
+                last = h;
+            }
+            valence[v as usize] = fan + (m.opp[prev(last) as usize] == NONE) as u32;
+            debug_assert_eq!(valence[v as usize], m.walk_valence(v));
             if fan != corners_at[v as usize] {
                 // Count fans: each fan has one start (a boundary half-edge), or is closed.
                 let starts = (0..nh as u32)
@@ -194,7 +202,7 @@ impl HalfEdgeMesh {
                 });
             }
         }
-        m.valence = (0..nv as u32).map(|v| m.walk_valence(v)).collect();
+        m.valence = valence;
         Ok(m)
     }
 
@@ -353,6 +361,17 @@ impl HalfEdgeMesh {
     /// Every vertex slot's position, to move many vertices at once.
     pub fn positions_mut(&mut self) -> &mut [V3] {
         &mut self.positions
+    }
+    /// Exchanges the positions with `other` (one position per vertex slot: panics
+    /// otherwise), for steps that compute every new position from the old ones into a second
+    /// buffer.
+    pub fn swap_positions(&mut self, other: &mut Vec<V3>) {
+        assert_eq!(
+            other.len(),
+            self.positions.len(),
+            "swap_positions: one position per vertex slot"
+        );
+        std::mem::swap(&mut self.positions, other);
     }
     pub fn positions(&self) -> &[V3] {
         &self.positions

@@ -458,6 +458,8 @@ struct State<'a> {
     origin: Vec<u32>,
     /// Per vertex, the last chain slide computed for it ([`State::slide_chain_params`]).
     slides: Vec<Slide>,
+    /// The relaxation's second buffer of positions ([`State::relax_and_project`]).
+    spare_positions: Vec<V3>,
 }
 
 /// One chain vertex's slide: where a vertex at parameter `s` of chain `chain`, between
@@ -701,6 +703,7 @@ fn isotropic_with(
         numbered_vertices: mesh.n_vertices(),
         origin: (0..mesh.n_vertices() as u32).collect(),
         slides: Vec::new(),
+        spare_positions: Vec::new(),
     };
     st.mergeable = (0..st.chains.len())
         .map(|c| {
@@ -759,7 +762,7 @@ fn isotropic_with(
     }
     if params.iterations > 0 {
         st.valence_collapses = st.collapse_for_valence(par);
-        st.valence_splits = st.split_for_valence(mesh);
+        st.valence_splits = st.split_for_valence(mesh, par);
         if st.valence_collapses + st.valence_splits > 0 {
             // Two relaxation steps spread the vertices over the gaps the collapses and the
             // splits left.
@@ -767,7 +770,7 @@ fn isotropic_with(
             st.relax_and_project(par, false);
             st.relax_and_project(par, true);
         }
-        st.collapse_slivers();
+        st.collapse_slivers(par);
         // Relaxation moved the vertices since the last flips: one more flip sweep.
         check()?;
         st.equalize_valences(par, false);
@@ -1002,31 +1005,69 @@ impl State<'_> {
     }
 
     fn split_long(&mut self, max_vertices: usize, par: Par) -> Result<(), RemeshError> {
+        // The vertices the last pass made: after a pass, only edges of their faces (either
+        // half-edge: a split moves the far side of its triangles to new half-edges, which can
+        // make the half-edge across it canonical) can be long. Elsewhere no end moved, no
+        // size changed, and an edge long before the pass was split.
+        let mut made: Option<Vec<u32>> = None;
         for _ in 0..64 {
             let mut any = false;
             // Longest edges first (ties by slot): longest-edge bisection never makes a
             // triangle thinner than half its smallest angle, while splitting in slot order
             // can bisect the short sides of a triangle again and again, making needles whose
             // long sides never get shorter (the sweep then only stops at the vertex cap).
-            // Found in parallel over fixed slot chunks (the sort fixes the order anyway).
-            const CHUNK: usize = 8192;
-            let nh = self.he.n_halfedge_slots();
             let st = &*self;
-            let mut long: Vec<(f64, u32)> = par
-                .map_collect(nh.div_ceil(CHUNK), |c| {
+            let long_edge = |h: u32| {
+                if !(st.he.is_halfedge_alive(h) && st.he.is_canonical(h)) {
+                    return None;
+                }
+                let (a, b) = (st.he.from(h), st.he.to(h));
+                let l2 = st.len2(a, b);
+                let hi2 = Self::split_len2(st.size[a as usize], st.size[b as usize]);
+                (l2 > hi2).then_some((l2, h))
+            };
+            // All of them, found in parallel over fixed slot chunks (the sort fixes the order
+            // anyway).
+            let all = || {
+                const CHUNK: usize = 8192;
+                let nh = st.he.n_halfedge_slots();
+                par.map_collect(nh.div_ceil(CHUNK), |c| {
                     (c * CHUNK..(c * CHUNK + CHUNK).min(nh))
-                        .map(|h| h as u32)
-                        .filter(|&h| st.he.is_halfedge_alive(h) && st.he.is_canonical(h))
-                        .filter_map(|h| {
-                            let (a, b) = (st.he.from(h), st.he.to(h));
-                            let l2 = st.len2(a, b);
-                            let hi2 = Self::split_len2(st.size[a as usize], st.size[b as usize]);
-                            (l2 > hi2).then_some((l2, h))
-                        })
+                        .filter_map(|h| long_edge(h as u32))
                         .collect::<Vec<_>>()
                 })
-                .concat();
+                .concat()
+            };
+            let mut long: Vec<(f64, u32)> = match &made {
+                None => all(),
+                Some(made) => {
+                    let mut long: Vec<(f64, u32)> = made
+                        .iter()
+                        .flat_map(|&m| st.he.outgoing(m))
+                        .flat_map(|k| {
+                            let f = halfedge::face_of(k);
+                            [3 * f, 3 * f + 1, 3 * f + 2]
+                        })
+                        .flat_map(|k| [k, st.he.opp(k)])
+                        .filter(|&k| k != NONE)
+                        .filter_map(long_edge)
+                        .collect();
+                    long.sort_by_key(|&(_, h)| h);
+                    long.dedup_by_key(|&mut (_, h)| h);
+                    debug_assert_eq!(
+                        {
+                            let mut a = all();
+                            a.sort_by_key(|&(_, h)| h);
+                            a
+                        },
+                        long,
+                        "a long edge away from the last pass's splits"
+                    );
+                    long
+                }
+            };
             long.sort_by(|x, y| y.0.total_cmp(&x.0).then(x.1.cmp(&y.1)));
+            let mut new_vertices = Vec::new();
             for (_, h) in long {
                 if !self.he.is_halfedge_alive(h) || !self.he.is_canonical(h) {
                     continue;
@@ -1067,11 +1108,13 @@ impl State<'_> {
                     .push(self.origin[a as usize].min(self.origin[b as usize]));
                 self.splits += 1;
                 any = true;
+                new_vertices.push(m);
                 debug_assert_eq!(m as usize + 1, self.role.len());
             }
             if !any {
                 break;
             }
+            made = Some(new_vertices);
         }
         Ok(())
     }
@@ -1521,12 +1564,12 @@ impl State<'_> {
     /// Such slivers remain where a vertex sits close to a corner or a feature and every
     /// collapse would have made an edge just over 4/3 L. A cap whose shortest side fails the
     /// link condition loses its middle vertex instead ([`Self::cap_apex_collapse`]).
-    fn collapse_slivers(&mut self) {
+    fn collapse_slivers(&mut self, par: Par) {
         const STRETCH2: f64 = 1.5 * 1.5;
         // A vertex takes part in one collapse per sweep; a few sweeps reach neighbouring
         // slivers.
         for _ in 0..3 {
-            if !self.collapse_slivers_sweep(STRETCH2) {
+            if !self.collapse_slivers_sweep(STRETCH2, par) {
                 break;
             }
         }
@@ -1560,11 +1603,8 @@ impl State<'_> {
             // find, so each class is planned on the pool and then moved, class by class.
             let mut tried: Vec<u32> = Vec::new();
             let mut classes = 0u32;
-            for f in 0..(self.he.n_halfedge_slots() / 3) as u32 {
-                let Some(t) = self.sliver_corners(f) else {
-                    continue;
-                };
-                for v in t {
+            for f in self.sliver_faces(par) {
+                for v in self.he.face_vertices(f) {
                     if class[v as usize] != u32::MAX
                         || self.role[v as usize] != Role::Free
                         || self.he.is_boundary_vertex(v)
@@ -1779,6 +1819,20 @@ impl State<'_> {
             }
         }
         moves
+    }
+
+    /// The faces for which [`State::sliver_corners`] answers, in face order (found on the pool
+    /// over fixed chunks).
+    fn sliver_faces(&self, par: Par) -> Vec<u32> {
+        const CHUNK: usize = 4096;
+        let nf = self.he.n_halfedge_slots() / 3;
+        par.map_collect(nf.div_ceil(CHUNK), |c| {
+            (c * CHUNK..(c * CHUNK + CHUNK).min(nf))
+                .map(|f| f as u32)
+                .filter(|&f| self.sliver_corners(f).is_some())
+                .collect::<Vec<_>>()
+        })
+        .concat()
     }
 
     /// The corners of face `f` when it is alive and has an angle below 30°.
@@ -2852,11 +2906,12 @@ impl State<'_> {
     /// sides between 0.6 and 4/3 of the local target, where `v`'s old place lies within 0.1 L
     /// of them, and where no input vertex nearby ends up farther than before and than
     /// [`VALENCE_SPLIT_NEAR`]·L ([`State::split_keeps_input_close`]). Three sweeps at most;
-    /// the rings of a split wait for the next sweep. Sequential, in slot order: the same bits
-    /// at any thread count.
-    fn split_for_valence(&mut self, input: &TriMesh) -> usize {
+    /// the rings of a split wait for the next sweep. Made in slot order (planned ahead on the
+    /// pool, see below): the same bits at any thread count.
+    fn split_for_valence(&mut self, input: &TriMesh, par: Par) -> usize {
         let off2 = (VALENCE_COLLAPSE_OFF * self.l).powi(2);
-        let mut stamp = vec![0u32; input.n_vertices()];
+        let n_in = input.n_vertices();
+        let mut stamp = vec![0u32; n_in];
         let mut generation = 0u32;
         let mut done = 0;
         // After the first sweep, only vertices whose two-ring a split changed are planned
@@ -2864,25 +2919,59 @@ impl State<'_> {
         let mut last: Option<Vec<bool>> = None;
         for _ in 0..3 {
             let slots = self.he.n_vertex_slots();
+            let candidates: Vec<u32> = (0..slots as u32)
+                .filter(|&v| {
+                    self.he.is_vertex_alive(v) && self.movable(v) && self.he.valence(v) >= 7
+                })
+                .filter(|&v| match &last {
+                    Some(t) => {
+                        let changed = |u: u32| t.get(u as usize).is_none_or(|&x| x);
+                        changed(v) || self.neighbor_iter(v).any(changed)
+                    }
+                    None => true,
+                })
+                .collect();
+            // Every candidate is planned on the pool against the sweep's first state; few
+            // plans succeed. A split at w changes the positions, valences and fans of w, its
+            // ring and the new vertex only (all `touched`), and the plan of v reads v, its
+            // ring, their valences and the faces around the ring: a plan whose vertex and ring
+            // are untouched is what planning it in order would give. The others are planned
+            // again when their turn comes, in slot order as before.
+            // (On one thread that would only add the plans of vertices touched before their
+            // turn.)
+            let mut plans: Option<Vec<Option<VertexSplit>>> = (par == Par::Rayon).then(|| {
+                let st = &*self;
+                par.map_init_collect(
+                    candidates.len(),
+                    || (vec![0u32; n_in], 0u32),
+                    |(stamp, generation), k| {
+                        st.plan_vertex_split(candidates[k], off2, input, stamp, generation)
+                    },
+                )
+            });
             let mut touched = vec![false; slots];
             let mut any = false;
-            for v in 0..slots as u32 {
-                if touched[v as usize]
-                    || !self.he.is_vertex_alive(v)
-                    || !self.movable(v)
-                    || self.he.valence(v) < 7
-                {
+            for (k, &v) in candidates.iter().enumerate() {
+                if touched[v as usize] {
                     continue;
                 }
-                if let Some(t) = &last {
-                    let changed = |u: u32| t.get(u as usize).is_none_or(|&x| x);
-                    if !changed(v) && !self.neighbor_iter(v).any(changed) {
-                        continue;
-                    }
-                }
-                let Some(plan) =
+                let made_ahead = plans.as_mut().filter(|_| {
+                    !self
+                        .neighbor_iter(v)
+                        .any(|u| touched.get(u as usize).is_none_or(|&t| t))
+                });
+                let plan = if let Some(plans) = made_ahead {
+                    let plan = plans[k].take();
+                    debug_assert_eq!(
+                        plan,
+                        self.plan_vertex_split(v, off2, input, &mut stamp, &mut generation),
+                        "a plan made ahead differs from the plan in order"
+                    );
+                    plan
+                } else {
                     self.plan_vertex_split(v, off2, input, &mut stamp, &mut generation)
-                else {
+                };
+                let Some(plan) = plan else {
                     continue;
                 };
                 for &u in &plan.ring {
@@ -3131,10 +3220,13 @@ impl State<'_> {
         dist2_to_triangles(q, stay)
     }
 
-    fn collapse_slivers_sweep(&mut self, stretch2: f64) -> bool {
+    fn collapse_slivers_sweep(&mut self, stretch2: f64, par: Par) -> bool {
         let mut any = false;
         let mut touched = vec![false; self.he.n_vertex_slots()];
-        for f in 0..(self.he.n_halfedge_slots() / 3) as u32 {
+        // The slivers at the sweep's start: a face that becomes one during the sweep has a
+        // corner a collapse touched (only those move or change faces), and is skipped below
+        // anyway. Those found are asked again (a collapse may have ended or removed them).
+        for f in self.sliver_faces(par) {
             let Some(t) = self.sliver_corners(f) else {
                 continue;
             };
@@ -3613,9 +3705,21 @@ impl State<'_> {
                 }
                 continue;
             }
-            let sideways = neutral
-                && after == before
-                && before > 0
+            let maybe_sideways = neutral && after == before && before > 0;
+            if after >= before && !maybe_sideways && !(old > COS_FLIP_MIN_ANGLE) {
+                continue;
+            }
+            let new = min_angle_cos(p(d), p(b), p(c)).max(min_angle_cos(p(c), p(a), p(d)));
+            // Valence flips keep the smallest angle of the pair above 30° (or do not lower
+            // it); a pair with a smaller angle is flipped whenever that raises it (then no
+            // flip can undo another, so the sweeps terminate). Angles as cosines.
+            let keeps_angles = new <= old.max(COS_FLIP_MIN_ANGLE);
+            // A sideways flip needs the angle test above, and an angle-raising flip passes it
+            // too: where it fails, whether the flip would be sideways does not matter, and
+            // the roles of the four rings are not looked at (most pairs with equal valence
+            // deviations before and after end here).
+            let sideways = maybe_sideways
+                && keeps_angles
                 && [a, b, c, d].iter().all(|&v| {
                     self.role[v as usize] == Role::Free
                         && self
@@ -3626,12 +3730,8 @@ impl State<'_> {
             if !valence_better && !(old > COS_FLIP_MIN_ANGLE) {
                 continue;
             }
-            let new = min_angle_cos(p(d), p(b), p(c)).max(min_angle_cos(p(c), p(a), p(d)));
-            // Valence flips keep the smallest angle of the pair above 30° (or do not lower
-            // it); a pair with a smaller angle is flipped whenever that raises it (then no
-            // flip can undo another, so the sweeps terminate). Angles as cosines.
             let ok = if valence_better {
-                new <= old.max(COS_FLIP_MIN_ANGLE)
+                keeps_angles
             } else {
                 new < old - 1e-6
             };
@@ -3696,7 +3796,6 @@ impl State<'_> {
         let he = &self.he;
         let role = &self.role;
         let proj = self.proj;
-        let hint = &self.hint;
         let far = self.l;
         let lloyd = self.lloyd;
         // Per face: its unnormalised normal (2 × area along the normal), its corner sum
@@ -3714,93 +3813,101 @@ impl State<'_> {
         // moves, which see the old ones (as when the slide ran after them).
         let mut param = std::mem::take(&mut self.param);
         let mut slides = std::mem::take(&mut self.slides);
+        // Each vertex's new place goes into a second buffer (its neighbours read the old
+        // ones), swapped in afterwards; its projection hint, which no other vertex reads, is
+        // updated in place. One parallel loop writes both, with no list of moves between
+        // (written back after the loop, on the calling thread or on the pool, the moves cost
+        // a few milliseconds of fandisk_large's run at 2 %).
+        let mut hint = std::mem::take(&mut self.hint);
+        let mut next = std::mem::take(&mut self.spare_positions);
+        next.resize(nv, [0.0; 3]);
         let st = &*self;
-        let (moved, slid) = par.join(
-            || {
-                par.map_collect(nv, |v| {
-                    let v = v as u32;
-                    let p = he.position(v);
-                    if !he.is_vertex_alive(v) {
-                        return (p, NONE, 0);
-                    }
-                    match role[v as usize] {
-                        Role::Corner => (p, hint[v as usize], 0),
-                        // Slid by the other side of the join.
-                        Role::Chain(_) => (p, NONE, 0),
-                        Role::Free => {
-                            // Centroid of the incident triangles' centroids weighted by their
-                            // areas, moved within the tangent plane of the area-weighted
-                            // vertex normal.
-                            let mut s = [0.0; 3];
-                            let mut nsum = [0.0; 3];
-                            let mut w = 0.0;
-                            let mut degree = 0;
-                            if lloyd {
-                                for k in he.outgoing(v) {
-                                    degree += 1;
-                                    // The corners after v, in the face's order.
-                                    let a = he.position(he.to(k));
-                                    let b = he.position(he.to(halfedge::next(k)));
-                                    let n = vec3::cross(vec3::sub(a, p), vec3::sub(b, p));
-                                    nsum = vec3::add(nsum, n);
-                                    let (g, area) = voronoi_part(p, a, b);
-                                    s = vec3::add(s, vec3::scale(g, area));
-                                    w += area;
-                                }
-                            } else {
-                                for k in he.outgoing(v) {
-                                    degree += 1;
-                                    let (nf, c, a) = face_value(halfedge::face_of(k));
-                                    nsum = vec3::add(nsum, nf);
-                                    s = vec3::add(s, c);
-                                    w += a;
-                                }
-                            }
-                            let q = if w > 0.0 {
-                                let u = vec3::sub(vec3::scale(s, 1.0 / w), p);
-                                let n = vec3::normalize(nsum);
-                                vec3::add(p, vec3::sub(u, vec3::scale(n, vec3::dot(n, u))))
-                            } else {
-                                p
-                            };
-                            if degree == 3 && shrinks_tetrahedron(he, v, q, 0.5 * far) {
-                                return (p, hint[v as usize], 0);
-                            }
-                            if project {
-                                let r = proj.project(q, hint[v as usize], far);
-                                (r.hit.point, r.hit.face, 1 + r.fallback as u8)
-                            } else {
-                                (q, hint[v as usize], 0)
-                            }
+        // The new place of `v` from its projection hint `h`: the place, its input face
+        // (`NONE`: the old place, kept) and how it was projected (0: not, 1: by a walk, 2: by
+        // the BVH).
+        let relax = |v: u32, h: u32| -> (V3, u32, u8) {
+            let p = he.position(v);
+            if !he.is_vertex_alive(v) {
+                return (p, NONE, 0);
+            }
+            match role[v as usize] {
+                Role::Corner => (p, h, 0),
+                // Slid by the other side of the join.
+                Role::Chain(_) => (p, NONE, 0),
+                Role::Free => {
+                    // Centroid of the incident triangles' centroids weighted by their
+                    // areas, moved within the tangent plane of the area-weighted
+                    // vertex normal.
+                    let mut s = [0.0; 3];
+                    let mut nsum = [0.0; 3];
+                    let mut w = 0.0;
+                    let mut degree = 0;
+                    if lloyd {
+                        for k in he.outgoing(v) {
+                            degree += 1;
+                            // The corners after v, in the face's order.
+                            let a = he.position(he.to(k));
+                            let b = he.position(he.to(halfedge::next(k)));
+                            let n = vec3::cross(vec3::sub(a, p), vec3::sub(b, p));
+                            nsum = vec3::add(nsum, n);
+                            let (g, area) = voronoi_part(p, a, b);
+                            s = vec3::add(s, vec3::scale(g, area));
+                            w += area;
+                        }
+                    } else {
+                        for k in he.outgoing(v) {
+                            degree += 1;
+                            let (nf, c, a) = face_value(halfedge::face_of(k));
+                            nsum = vec3::add(nsum, nf);
+                            s = vec3::add(s, c);
+                            w += a;
                         }
                     }
+                    let q = if w > 0.0 {
+                        let u = vec3::sub(vec3::scale(s, 1.0 / w), p);
+                        let n = vec3::normalize(nsum);
+                        vec3::add(p, vec3::sub(u, vec3::scale(n, vec3::dot(n, u))))
+                    } else {
+                        p
+                    };
+                    if degree == 3 && shrinks_tetrahedron(he, v, q, 0.5 * far) {
+                        return (p, h, 0);
+                    }
+                    if project {
+                        let r = proj.project(q, h, far);
+                        (r.hit.point, r.hit.face, 1 + r.fallback as u8)
+                    } else {
+                        (q, h, 0)
+                    }
+                }
+            }
+        };
+        const CHUNK: usize = 512;
+        let (counts, slid) = par.join(
+            || {
+                par.map_chunk_pairs_mut(&mut next, &mut hint[..nv], CHUNK, |start, ps, hs| {
+                    let (mut projections, mut fallbacks) = (0, 0);
+                    for (i, (p, h)) in ps.iter_mut().zip(hs.iter_mut()).enumerate() {
+                        let (q, f, k) = relax((start + i) as u32, *h);
+                        *p = q;
+                        if f != NONE {
+                            *h = f;
+                        }
+                        projections += (k > 0) as usize;
+                        fallbacks += (k > 1) as usize;
+                    }
+                    (projections, fallbacks)
                 })
             },
             || st.slide_chain_params(&mut param, &mut slides),
         );
-        for &(_, _, k) in &moved {
-            self.projections += (k > 0) as usize;
-            self.fallbacks += (k > 1) as usize;
+        for (p, f) in counts {
+            self.projections += p;
+            self.fallbacks += f;
         }
-        // The new places are written on the pool too: copied on the calling thread after a
-        // parallel step, they took 3.2 ms of fandisk_large's relaxation at 2 % on two threads
-        // against 0.7 ms on one (the cause was not found; reading the results alone took
-        // 0.2 ms).
-        const CHUNK: usize = 2048;
-        par.for_each_chunk_mut(self.he.positions_mut(), CHUNK, |start, part| {
-            for (p, &(q, f, _)) in part.iter_mut().zip(&moved[start..]) {
-                if f != NONE {
-                    *p = q;
-                }
-            }
-        });
-        par.for_each_chunk_mut(&mut self.hint[..nv], CHUNK, |start, part| {
-            for (h, &(_, f, _)) in part.iter_mut().zip(&moved[start..]) {
-                if f != NONE {
-                    *h = f;
-                }
-            }
-        });
+        self.he.swap_positions(&mut next);
+        self.spare_positions = next;
+        self.hint = hint;
         self.param = param;
         self.slides = slides;
         for (v, p) in slid {
@@ -3945,6 +4052,7 @@ struct SplitPlan {
 /// A vertex split planned by [`State::plan_vertex_split`]: the ring of the vertex, the two
 /// ring positions that become the apexes of the new edge, and the two vertices' places (point,
 /// input face).
+#[derive(Debug, PartialEq)]
 struct VertexSplit {
     ring: Vec<u32>,
     p: usize,
