@@ -1365,6 +1365,28 @@ impl State<'_> {
         true
     }
 
+    /// [`Self::fan_ok`] for `v` moved to `p` (all its triangles), when the cosine of their
+    /// smallest angle stays below `bound`: that cosine, else `None`. Stops at the first
+    /// triangle that turns over or reaches the bound (the cosine only grows along the fan).
+    fn fan_below(&self, v: u32, p: V3, bound: f64) -> Option<f64> {
+        let mut new: f64 = -1.0;
+        for k in self.he.outgoing(v) {
+            let t = self.he.face_vertices(halfedge::face_of(k));
+            let [x, y, z] = t.map(|u| self.he.position(u));
+            let q = |u: u32, at: V3| if u == v { p } else { at };
+            let moved = [q(t[0], x), q(t[1], y), q(t[2], z)];
+            let n_old = vec3::cross(vec3::sub(y, x), vec3::sub(z, x));
+            if !keeps_orientation(n_old, moved, self.cos_turn) {
+                return None;
+            }
+            new = new.max(min_angle_cos(moved[0], moved[1], moved[2]));
+            if new >= bound {
+                return None;
+            }
+        }
+        Some(new)
+    }
+
     /// Whether boundary vertex `v` may slide to `p`: its triangles keep their orientation and
     /// none gets an angle below both 30° and the smallest angle of the fan before. A boundary
     /// vertex may slide far (its tolerance lets bends go), over an inner neighbour or onto
@@ -1801,13 +1823,10 @@ impl State<'_> {
                 let mut best = (self.fan_min_angle_cos(v, NONE), NONE);
                 for &i in &near {
                     let x = input.positions[i as usize];
-                    let mut new = -1.0;
-                    if self.fan_ok(v, NONE, x, &mut new)
-                        && new < best.0
-                        && !topo.vertex_faces(i).is_empty()
-                        && !self.move_leaves_surface(v, x)
-                    {
-                        best = (new, i);
+                    if let Some(new) = self.fan_below(v, x, best.0) {
+                        if !topo.vertex_faces(i).is_empty() && !self.move_leaves_surface(v, x) {
+                            best = (new, i);
+                        }
                     }
                 }
                 if best.1 != NONE {
@@ -2149,16 +2168,14 @@ impl State<'_> {
         pull: &mut FarPull<'_>,
     ) -> bool {
         let old = self.fan_min_angle_cos(v, NONE);
-        let mut new = -1.0;
-        if !self.fan_ok(v, NONE, x, &mut new) {
-            return false;
-        }
-        let angles_ok = if partway {
-            new <= COS_FAR_MOVE_MIN_ANGLE.min(old)
+        // The smallest angle may not fall below 30° and the fan's before (part of the way),
+        // or below both (the whole way): the new cosine at most `allowed`.
+        let allowed = if partway {
+            COS_FAR_MOVE_MIN_ANGLE.min(old)
         } else {
-            new <= COS_FAR_MOVE_MIN_ANGLE || new <= old
+            COS_FAR_MOVE_MIN_ANGLE.max(old)
         };
-        if !angles_ok || self.move_leaves_surface(v, x) {
+        if self.fan_below(v, x, allowed.next_up()).is_none() || self.move_leaves_surface(v, x) {
             return false;
         }
         let ring: Vec<u32> = self.neighbor_iter(v).collect();
@@ -2795,10 +2812,9 @@ impl State<'_> {
             let r = self.proj.project(q, self.hint[v as usize], self.l);
             plan.projections += 1;
             plan.fallbacks += r.fallback as u32;
-            let mut new = -1.0;
-            if !self.fan_ok(v, NONE, r.hit.point, &mut new) || new >= best.0 {
+            let Some(new) = self.fan_below(v, r.hit.point, best.0) else {
                 continue;
-            }
+            };
             let ok = if flat_here {
                 flat(r.hit.point)
             } else {
