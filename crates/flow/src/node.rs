@@ -95,26 +95,23 @@ impl Par {
         }
     }
 
-    /// Runs `f(start, part)` on the consecutive parts of `data` of `chunk` elements (the last
-    /// may be shorter; `start` is the index of its first element), in parallel when `self` is
-    /// `Rayon`. `chunk` is at least 1.
-    pub fn for_each_chunk_mut<T, F>(self, data: &mut [T], chunk: usize, f: F)
+    /// The `Some` results of `f` over `0..n`, in index order, found in parallel over fixed
+    /// chunks of `chunk` indices when `self` is `Rayon` (for scans that keep few indices, where
+    /// a result per index would cost more than the scan). `chunk` is at least 1.
+    pub fn filter_map_collect<T, F>(self, n: usize, chunk: usize, f: F) -> Vec<T>
     where
         T: Send,
-        F: Fn(usize, &mut [T]) + Sync + Send,
+        F: Fn(usize) -> Option<T> + Sync + Send,
     {
-        use rayon::prelude::*;
         let chunk = chunk.max(1);
-        match self {
-            Par::Seq => data
-                .chunks_mut(chunk)
-                .enumerate()
-                .for_each(|(i, part)| f(i * chunk, part)),
-            Par::Rayon => data
-                .par_chunks_mut(chunk)
-                .enumerate()
-                .for_each(|(i, part)| f(i * chunk, part)),
-        }
+        self.map_collect(n.div_ceil(chunk), |c| {
+            (c * chunk..(c * chunk + chunk).min(n))
+                .filter_map(&f)
+                .collect::<Vec<_>>()
+        })
+        .into_iter()
+        .flatten()
+        .collect()
     }
 
     /// Runs `f(start, part_a, part_b)` on the consecutive parts of `a` and `b` of `chunk`

@@ -95,24 +95,18 @@ fn map_chunk_pairs_mut_hands_out_matching_parts_in_order() {
 }
 
 #[test]
-fn for_each_chunk_mut_hands_out_every_part_once_with_its_start() {
+fn filter_map_collect_keeps_the_kept_indices_in_order() {
     for par in [Par::Seq, Par::Rayon] {
         for chunk in [0, 1, 7, 1000, 5000] {
-            let mut data = vec![0usize; 1000];
-            // Each element gets its own index plus one, written through its part.
-            par.for_each_chunk_mut(&mut data, chunk, |start, part| {
-                assert!(part.len() <= chunk.max(1));
-                for (i, x) in part.iter_mut().enumerate() {
-                    *x += start + i + 1;
-                }
-            });
-            assert_eq!(
-                data,
-                (1..=1000).collect::<Vec<_>>(),
-                "{par:?}, chunk {chunk}"
-            );
+            // Multiples of 7 below 1000, as their squares.
+            let out = par.filter_map_collect(1000, chunk, |i| (i % 7 == 0).then_some(i * i));
+            let want: Vec<usize> = (0..1000).filter(|i| i % 7 == 0).map(|i| i * i).collect();
+            assert_eq!(out, want, "{par:?}, chunk {chunk}");
         }
+        assert!(par
+            .filter_map_collect(0, 4, |_| -> Option<u8> {
+                panic!("no index of an empty range")
+            })
+            .is_empty());
     }
-    let mut empty: Vec<u8> = Vec::new();
-    Par::Rayon.for_each_chunk_mut(&mut empty, 4, |_, _| panic!("no part of an empty slice"));
 }

@@ -358,10 +358,6 @@ impl HalfEdgeMesh {
     pub fn set_position(&mut self, v: u32, p: V3) {
         self.positions[v as usize] = p;
     }
-    /// Every vertex slot's position, to move many vertices at once.
-    pub fn positions_mut(&mut self) -> &mut [V3] {
-        &mut self.positions
-    }
     /// Exchanges the positions with `other` (one position per vertex slot: panics
     /// otherwise), for steps that compute every new position from the old ones into a second
     /// buffer.

@@ -1028,16 +1028,8 @@ impl State<'_> {
             };
             // All of them, found in parallel over fixed slot chunks (the sort fixes the order
             // anyway).
-            let all = || {
-                const CHUNK: usize = 8192;
-                let nh = st.he.n_halfedge_slots();
-                par.map_collect(nh.div_ceil(CHUNK), |c| {
-                    (c * CHUNK..(c * CHUNK + CHUNK).min(nh))
-                        .filter_map(|h| long_edge(h as u32))
-                        .collect::<Vec<_>>()
-                })
-                .concat()
-            };
+            let all =
+                || par.filter_map_collect(st.he.n_halfedge_slots(), 8192, |h| long_edge(h as u32));
             let mut long: Vec<(f64, u32)> = match &made {
                 None => all(),
                 Some(made) => {
@@ -1329,11 +1321,12 @@ impl State<'_> {
     /// (normal turn at most `max_turn`) and some area when `v` moves to `p`; raises `new` to
     /// the cosine of their smallest angle after the move.
     fn fan_ok(&self, v: u32, other: u32, p: V3, new: &mut f64) -> bool {
-        self.fan_ok_with_old(v, other, p, new, None)
+        self.fan_ok_with_old(v, other, p, new, None, f64::INFINITY)
     }
 
     /// [`Self::fan_ok`], also raising `old` (when given) to the cosine of the smallest angle
     /// of those triangles before the move ([`Self::fan_min_angle_cos`] in the same sweep).
+    /// Answers false as soon as `new` reaches `stop` (it only grows along the fan).
     #[inline]
     fn fan_ok_with_old(
         &self,
@@ -1342,6 +1335,7 @@ impl State<'_> {
         p: V3,
         new: &mut f64,
         mut old: Option<&mut f64>,
+        stop: f64,
     ) -> bool {
         let cos_max = self.cos_turn;
         for k in self.he.outgoing(v) {
@@ -1358,6 +1352,9 @@ impl State<'_> {
                 return false;
             }
             *new = new.max(min_angle_cos(moved[0], moved[1], moved[2]));
+            if *new >= stop {
+                return false;
+            }
             if let Some(o) = old.as_deref_mut() {
                 *o = o.max(min_angle_cos(x, y, z));
             }
@@ -1369,22 +1366,9 @@ impl State<'_> {
     /// smallest angle stays below `bound`: that cosine, else `None`. Stops at the first
     /// triangle that turns over or reaches the bound (the cosine only grows along the fan).
     fn fan_below(&self, v: u32, p: V3, bound: f64) -> Option<f64> {
-        let mut new: f64 = -1.0;
-        for k in self.he.outgoing(v) {
-            let t = self.he.face_vertices(halfedge::face_of(k));
-            let [x, y, z] = t.map(|u| self.he.position(u));
-            let q = |u: u32, at: V3| if u == v { p } else { at };
-            let moved = [q(t[0], x), q(t[1], y), q(t[2], z)];
-            let n_old = vec3::cross(vec3::sub(y, x), vec3::sub(z, x));
-            if !keeps_orientation(n_old, moved, self.cos_turn) {
-                return None;
-            }
-            new = new.max(min_angle_cos(moved[0], moved[1], moved[2]));
-            if new >= bound {
-                return None;
-            }
-        }
-        Some(new)
+        let mut new = -1.0;
+        self.fan_ok_with_old(v, NONE, p, &mut new, None, bound)
+            .then_some(new)
     }
 
     /// Whether boundary vertex `v` may slide to `p`: its triangles keep their orientation and
@@ -1394,7 +1378,7 @@ impl State<'_> {
     /// one triangle).
     fn boundary_slide_ok(&self, v: u32, p: V3) -> bool {
         let (mut new, mut old) = (-1.0f64, -1.0f64);
-        self.fan_ok_with_old(v, NONE, p, &mut new, Some(&mut old))
+        self.fan_ok_with_old(v, NONE, p, &mut new, Some(&mut old), f64::INFINITY)
             && new <= old.max(COS_FAR_MOVE_MIN_ANGLE)
     }
 
@@ -1574,8 +1558,8 @@ impl State<'_> {
                 } else {
                     // The old angles come with the same sweeps (most collapses need them).
                     let (mut old_a, mut old_b) = (-1.0f64, -1.0f64);
-                    self.fan_ok_with_old(a, b, p, &mut new, Some(&mut old_a))
-                        && self.fan_ok_with_old(b, a, p, &mut new, Some(&mut old_b))
+                    self.fan_ok_with_old(a, b, p, &mut new, Some(&mut old_a), f64::INFINITY)
+                        && self.fan_ok_with_old(b, a, p, &mut new, Some(&mut old_b), f64::INFINITY)
                         && (new <= cos_min || new <= old_a || new <= old_b)
                 }
             }
@@ -1843,15 +1827,10 @@ impl State<'_> {
     /// The faces for which [`State::sliver_corners`] answers, in face order (found on the pool
     /// over fixed chunks).
     fn sliver_faces(&self, par: Par) -> Vec<u32> {
-        const CHUNK: usize = 4096;
-        let nf = self.he.n_halfedge_slots() / 3;
-        par.map_collect(nf.div_ceil(CHUNK), |c| {
-            (c * CHUNK..(c * CHUNK + CHUNK).min(nf))
-                .map(|f| f as u32)
-                .filter(|&f| self.sliver_corners(f).is_some())
-                .collect::<Vec<_>>()
+        par.filter_map_collect(self.he.n_halfedge_slots() / 3, 4096, |f| {
+            let f = f as u32;
+            self.sliver_corners(f).map(|_| f)
         })
-        .concat()
     }
 
     /// The corners of face `f` when it is alive and has an angle below 30°.
