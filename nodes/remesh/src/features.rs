@@ -14,8 +14,8 @@
 //!   that come back to a vertex already passed are cut out.
 //!
 //! A stretch of curve between two vertices of one boundary follows the boundary instead when
-//! that way is at most [`BOUNDARY_DETOUR`] times as long and stays within
-//! [`BOUNDARY_FOLLOW_OFFSET`] of the stretch's chord: a network of sharp edges and boundaries
+//! that way is at most `BOUNDARY_DETOUR` times as long and stays within
+//! `BOUNDARY_FOLLOW_OFFSET` of the stretch's chord: a network of sharp edges and boundaries
 //! (`remesh.sharp_edges`, resampled by `scale.conform`) stands for the boundary there, which
 //! is kept anyway.
 //!

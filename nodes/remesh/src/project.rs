@@ -38,7 +38,7 @@ pub struct Projector<'a> {
     bvh: OnceLock<Bvh>,
     /// Whether that build may use the rayon pool.
     par: Par,
-    /// Face across side i = (tri[i], tri[i+1]) of each face (`NO_FACE` on the boundary or at a
+    /// Face across side i = `(tri[i], tri[i+1])` of each face (`NO_FACE` on the boundary or at a
     /// non-manifold edge).
     across: Vec<[u32; 3]>,
 }

@@ -182,7 +182,7 @@ pub fn tip_vertices(mesh: &TriMesh, l: f64, excluded: &[bool], par: Par) -> Vec<
 
 /// What the tip search needs of a mesh at target length `l` before it knows which vertices
 /// are excluded: the angle deficits, and which vertices lie in a cell of side `l / 2` whose
-/// 3×3×3 block may hold a tip. [`crate::isotropic`] builds it on the pool beside the
+/// 3×3×3 block may hold a tip. [`crate::isotropic()`] builds it on the pool beside the
 /// half-edge structure, then asks for the tips once the features are known
 /// ([`TipField::tips`]).
 pub struct TipField {
