@@ -72,6 +72,20 @@ def sharp_edges(V, F, deg=FEATURE_DEG):
     return np.concatenate(out)
 
 
+def edges_and_valences(F, n):
+    """The unique edges of faces F over n vertices, how many faces each has, each vertex's
+    valence, which vertices are used by a face, and which of those are interior (no boundary
+    edge at them)."""
+    Es, _ = edges_with_faces(F)
+    uE, cnt = np.unique(Es, axis=0, return_counts=True)
+    val = np.bincount(uE.ravel(), minlength=n)
+    bnd = np.zeros(n, bool)
+    bnd[uE[cnt == 1].ravel()] = True
+    used = np.zeros(n, bool)
+    used[F.ravel()] = True
+    return uE, cnt, val, used, used & ~bnd
+
+
 def quality(V, F):
     a, b, c = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
 
@@ -80,14 +94,7 @@ def quality(V, F):
         return np.degrees(np.arctan2(np.linalg.norm(np.cross(u, w), axis=1), np.einsum("ij,ij->i", u, w)))
 
     A = np.stack([ang(a, b, c), ang(b, c, a), ang(c, a, b)], 1)
-    Es, _ = edges_with_faces(F)
-    uE, cnt = np.unique(Es, axis=0, return_counts=True)
-    val = np.bincount(uE.ravel(), minlength=len(V))
-    bnd = np.zeros(len(V), bool)
-    bnd[uE[cnt == 1].ravel()] = True
-    used = np.zeros(len(V), bool)
-    used[F.ravel()] = True
-    inner = used & ~bnd
+    uE, cnt, val, used, inner = edges_and_valences(F, len(V))
     L = np.linalg.norm(V[uE[:, 0]] - V[uE[:, 1]], axis=1)
     return {
         "n_vertices": int(used.sum()), "n_faces": int(len(F)),

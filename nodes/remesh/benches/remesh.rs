@@ -3,7 +3,7 @@
 //!   cargo bench -p crestflow-nodes-remesh --bench remesh -- OUT_DIR MESH... [--targets 1,2]
 //!       [--feature-tolerance 0.002] [--boundary-tolerance 0.25] [--iterations 10] [--smoothing-steps 5]
 //!       [--feature-grading 0] [--conforming [--sharp-angle 30]] [--lloyd] [--repeats 3]
-//!       [--repair] [--special-long-edges] [--conform-ratio 1]
+//!       [--repair] [--special-long-edges] [--conform-ratio 1] [--save-curves]
 //!
 //! With `--conforming` (method `crestflow_conforming`) the features are not every sharp edge
 //! but the scale-conforming subset of them: `remesh.sharp_edges` pruned at the target,
@@ -16,7 +16,9 @@
 //! `_long`. `--conform-ratio F` prunes and conforms at r_min = F × the target instead (the
 //! remeshing target stays; the name ends in `_rminF`).
 //! `--repair` loads the meshes as `io.load_mesh` does with `repair: true` (non-manifold edges
-//! and vertices split, faces oriented coherently; `bench/remesh/corpus.sh`).
+//! and vertices split, faces oriented coherently; `bench/remesh/corpus.sh`). With
+//! `--conforming`, `--save-curves` also writes the scale-conforming network beside the output
+//! (`….curves.obj`, for `bench/remesh/valence_by_distance.py`).
 //!
 //! For each mesh and target (percent of the bounding-box diagonal): the median of 3 runs
 //! (`--repeats N`: N runs, e.g. for a profiler) of
@@ -27,7 +29,7 @@
 use std::time::Instant;
 
 use crestflow_flow::{Par, ReportValue};
-use crestflow_geom::io::{load_mesh, save_mesh_obj, LoadOptions};
+use crestflow_geom::io::{load_mesh, save_curves_obj, save_mesh_obj, LoadOptions};
 use crestflow_nodes_remesh::{
     isotropic, sharp_edges, IsotropicParams, Relaxation, SharpEdgesParams,
 };
@@ -69,6 +71,8 @@ fn main() {
     args.retain(|a| a != "--lloyd");
     let repair = args.iter().any(|a| a == "--repair");
     args.retain(|a| a != "--repair");
+    let save_curves = args.iter().any(|a| a == "--save-curves");
+    args.retain(|a| a != "--save-curves");
     let special_long = args.iter().any(|a| a == "--special-long-edges");
     args.retain(|a| a != "--special-long-edges");
     if let Some(list) = take_value::<String>(&mut args, "--targets") {
@@ -127,6 +131,7 @@ fn main() {
             };
             let mut times = Vec::new();
             let mut out = None;
+            let mut network = None;
             for par in [Par::Seq, Par::Rayon] {
                 let mut runs = Vec::new();
                 for _ in 0..repeats {
@@ -139,8 +144,10 @@ fn main() {
                                     .map_err(|e| e.to_string())
                             })
                             .and_then(|c| {
-                                isotropic(&mesh, Some(&c.network), &params, par)
-                                    .map_err(|e| e.to_string())
+                                let r = isotropic(&mesh, Some(&c.network), &params, par)
+                                    .map_err(|e| e.to_string());
+                                network = Some(c.network);
+                                r
                             })
                     } else {
                         isotropic(&mesh, None, &params, par).map_err(|e| e.to_string())
@@ -188,6 +195,13 @@ fn main() {
             if let Err(e) = save_mesh_obj(&file, &out.mesh, None) {
                 eprintln!("{e}");
                 std::process::exit(1);
+            }
+            if let (true, Some(net)) = (save_curves, &network) {
+                let curves = out_dir.join(format!("{stem}.{method}_{pct}pct.curves.obj"));
+                if let Err(e) = save_curves_obj(&curves, net) {
+                    eprintln!("{e}");
+                    std::process::exit(1);
+                }
             }
             let report: Vec<String> = out
                 .report
