@@ -178,19 +178,14 @@ impl HalfEdgeMesh {
             }
         }
         // Manifold vertices: the fan swept from `out` holds every corner of the vertex. The
-        // same sweep counts the vertex's edges (as `walk_valence`).
+        // same sweep counts the vertex's edges.
         let mut valence = vec![0u32; nv];
         for v in 0..nv as u32 {
             if m.out[v as usize] == NONE {
                 continue;
             }
-            let (mut fan, mut last) = (0u32, NONE);
-            for h in m.outgoing(v) {
-                fan += 1;
-                last = h;
-            }
-            valence[v as usize] = fan + (m.opp[prev(last) as usize] == NONE) as u32;
-            debug_assert_eq!(valence[v as usize], m.walk_valence(v));
+            let fan;
+            (fan, valence[v as usize]) = m.walk_fan(v);
             if fan != corners_at[v as usize] {
                 // Count fans: each fan has one start (a boundary half-edge), or is closed.
                 let starts = (0..nh as u32)
@@ -463,16 +458,19 @@ impl HalfEdgeMesh {
     }
     /// [`HalfEdgeMesh::valence`] counted around the fan.
     fn walk_valence(&self, v: u32) -> u32 {
+        self.walk_fan(v).1
+    }
+    /// The number of faces of `v`'s fan (swept from its outgoing half-edge) and its valence:
+    /// one edge more than faces where the fan ends on the boundary.
+    fn walk_fan(&self, v: u32) -> (u32, u32) {
         let mut n = 0;
         let mut last = NONE;
         for h in self.outgoing(v) {
             n += 1;
             last = h;
         }
-        if last != NONE && self.opp[prev(last) as usize] == NONE {
-            n += 1;
-        }
-        n
+        let open = last != NONE && self.opp[prev(last) as usize] == NONE;
+        (n, n + open as u32)
     }
     /// The half-edge from `a` to `b`, or the one from `b` to `a` when `a → b` is a boundary
     /// side only `b → a` exists for; `NONE` when a and b are not joined.
