@@ -17,6 +17,11 @@
 //! 4. **Collapses**: short edges the selection drops are collapsed into their sharper end
 //!    vertex; other dropped edges are removed.
 //!
+//! Lone edges (an arc of one edge whose ends belong to no other edge) are fixed to 0 in
+//! step 3 unless `lone_edges: true`: the thesis's (4.9) drops such an arc only when it is
+//! shorter than r_min. An edge left lone by the selection goes in the next iteration (the
+//! program does not see that dropping a neighbour drops it too).
+//!
 //! Long edges are never kept, except special long edges (§4.3.3.2) with
 //! `special_long_edges: true`: an arc of one edge between r_max and 2 r_min, which S can hold
 //! neither as one edge nor as two (with r_max = 1.5 r_min, every arc from 1.5 to 2 r_min
@@ -102,6 +107,13 @@ pub struct ConformParams {
     /// r_max and 2 r_min, which S can hold neither as one edge nor as two. Off, such arcs are
     /// dropped. `scale.check` must be given the same value.
     pub special_long_edges: bool,
+    /// Keep lone edges (default false): an arc of one edge whose two ends belong to no other
+    /// edge. Constraint (4.9) drops such an arc when it is shorter than r_min; off, it is
+    /// dropped at any length, since at the scale it is a fragment shorter than two edges
+    /// that pins two vertices of a remesh and gives it no curve to follow (of the 76 edges
+    /// kept from the subdivided armadillo's sharp edges at 2 %, 55 were lone;
+    /// docs/scale-remesh.md has what dropping them changes).
+    pub lone_edges: bool,
 }
 
 impl Default for ConformParams {
@@ -120,6 +132,7 @@ impl Default for ConformParams {
             solver: Solver::Ilp,
             time_limit_s: 60.0,
             special_long_edges: false,
+            lone_edges: false,
         }
     }
 }
@@ -233,6 +246,8 @@ pub struct ConformStats {
     pub greedy_kept: usize,
     pub short_collapsed: usize,
     pub long_dropped: usize,
+    /// Lone edges (an arc of one edge with two free ends) fixed to 0 (over all iterations).
+    pub lone_dropped: usize,
     pub loops_dropped: usize,
     pub repaired_edges: usize,
     /// Components (over all iterations) whose optimum was not proven: improved by windows
@@ -270,6 +285,7 @@ impl ConformStats {
             .set("greedy_kept", self.greedy_kept)
             .set("short_collapsed", self.short_collapsed)
             .set("long_dropped", self.long_dropped)
+            .set("lone_dropped", self.lone_dropped)
             .set("loops_dropped", self.loops_dropped)
             .set("repaired_edges", self.repaired_edges)
             .set("unproven_components", self.unproven_components)
@@ -450,7 +466,6 @@ impl Surface<'_> {
     }
 }
 
-/// The selection problem of step 3 for graph `g`.
 /// The edges of `g` that are special long edges (thesis §4.3.3.2): an arc of a single edge
 /// whose length lies between r_max and 2 r_min, which S cannot hold as one edge or as two.
 /// They are kept like edges of S (the remesher splits them in two); other long edges never
@@ -471,13 +486,29 @@ pub(crate) fn special_long_edges(g: &Graph, s: &Scale) -> Vec<bool> {
     special
 }
 
+/// The edges of `g` that are lone: neither end belongs to another edge.
+fn lone_edges(g: &Graph) -> Vec<bool> {
+    let mut degree = vec![0u32; g.pos.len()];
+    for &[a, b] in &g.edges {
+        degree[a as usize] += 1;
+        degree[b as usize] += 1;
+    }
+    g.edges
+        .iter()
+        .map(|&[a, b]| a != b && degree[a as usize] == 1 && degree[b as usize] == 1)
+        .collect()
+}
+
+/// The selection problem of step 3 for graph `g`, the number of its vertex conflicts, and of
+/// the lone edges it fixes to 0. Long edges (except special long ones) and, unless
+/// `params.lone_edges`, lone edges are fixed to 0.
 pub fn build_problem(
     g: &Graph,
     s: &Scale,
     cw: &[f64],
     params: &ConformParams,
     par: Par,
-) -> (Problem, usize) {
+) -> (Problem, usize, usize) {
     let ne = g.edges.len();
     let len: Vec<f64> = g
         .edges
@@ -486,6 +517,11 @@ pub fn build_problem(
         .collect();
     let conf = find_conflicts(s, &g.pos, &g.edges, par);
     let special = special_long_edges(g, s);
+    let lone = if params.lone_edges {
+        vec![false; ne]
+    } else {
+        lone_edges(g)
+    };
     let mut on_loop = vec![false; ne];
     for a in g.arcs() {
         if a.closed {
@@ -568,22 +604,21 @@ pub fn build_problem(
     }
     pairs.sort_by_key(|x| (x.0, x.1));
     let n_vc = conf.vertex_pairs.len();
+    let long: Vec<bool> = (0..ne).map(|e| s.is_long(len[e]) && !special[e]).collect();
+    let n_lone = (0..ne).filter(|&e| lone[e] && !long[e]).count();
     (
         Problem {
             n_vertices: g.pos.len(),
             edges: g.edges.clone(),
             weight,
-            fixed_zero: len
-                .iter()
-                .zip(&special)
-                .map(|(&l, &sp)| s.is_long(l) && !sp)
-                .collect(),
+            fixed_zero: (0..ne).map(|e| long[e] || lone[e]).collect(),
             short: len.iter().map(|&l| s.is_short(l)).collect(),
             edge_conflicts: conf.edge_pairs.iter().map(|&(i, j, _)| (i, j)).collect(),
             vertex_conflicts: conf.vertex_pairs,
             pairs,
         },
         n_vc,
+        n_lone,
     )
 }
 
@@ -648,7 +683,7 @@ fn apply(g: &Graph, p: &Problem, keep: &[bool]) -> (Graph, usize, usize) {
 fn repair(mut g: Graph, s: &Scale, cw: &[f64], params: &ConformParams, par: Par) -> (Graph, usize) {
     let mut removed = 0;
     loop {
-        let (p, _) = build_problem(&g, s, cw, params, par);
+        let (p, _, _) = build_problem(&g, s, cw, params, par);
         let ne = g.edges.len();
         let mut drop: Vec<bool> = (0..ne).map(|e| p.short[e] || p.fixed_zero[e]).collect();
         let mut any = drop.iter().any(|&d| d);
@@ -751,7 +786,7 @@ pub fn conform_with(
         }
         let (g1, resampled, dropped) = resample(&g, &s, params.loop_starts as usize, &surface, par);
         stats.loops_dropped += dropped;
-        let (p, n_vc) = build_problem(&g1, &s, &cw, params, par);
+        let (p, n_vc, n_lone) = build_problem(&g1, &s, &cw, params, par);
         let limit = (params.time_limit_s > 0.0).then_some(params.time_limit_s);
         let sel = ilp::select_using(&p, method, backend, limit, par)?;
         stats.unproven_components += sel.unproven;
@@ -770,7 +805,8 @@ pub fn conform_with(
             stats.greedy_objective_components = greedy.objective - greedy.fixed_objective;
             stats.greedy_kept = greedy.keep.iter().filter(|&&k| k).count();
         }
-        stats.long_dropped += p.fixed_zero.iter().filter(|&&f| f).count();
+        stats.lone_dropped += n_lone;
+        stats.long_dropped += p.fixed_zero.iter().filter(|&&f| f).count() - n_lone;
         let (g2, removed, collapsed) = apply(&g1, &p, &sel.keep);
         stats.short_collapsed += collapsed;
         stats.iterations = it + 1;
@@ -805,7 +841,7 @@ pub struct ConformNode;
 impl NodeKind for ConformNode {
     type Params = ConformParams;
     const KIND: &'static str = "scale.conform";
-    const VERSION: u32 = 8;
+    const VERSION: u32 = 9;
     const DOC: &'static str = "Adapts a feature curve network to a prescribed scale r_min: arcs \
         resampled into edges of length in [r_min, r_max], edge and vertex conflicts detected, \
         the best conflict-free subset selected by an exact binary linear program (weights \

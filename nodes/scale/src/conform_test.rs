@@ -329,7 +329,7 @@ fn pair_terms() {
         ..Default::default()
     };
     let cw = vec![1.0; net.curves.len()];
-    let (p, _) = build_problem(&g, &s, &cw, &params, Par::Seq);
+    let (p, _, _) = build_problem(&g, &s, &cw, &params, Par::Seq);
     let find = |x: [V3; 2], y: [V3; 2]| {
         let e = |q: [V3; 2]| {
             g.edges
@@ -415,8 +415,10 @@ fn an_arc_between_r_max_and_two_r_min_is_a_special_long_edge() {
     let out = conform(&net, &box_mesh(), &params(), Par::Seq).unwrap();
     assert_eq!(out.stats.output_edges, 0, "dropped by default");
     assert!(out.stats.long_dropped >= 1);
+    // A lone edge (both ends free, as here) is dropped at any length unless kept.
     let keep = ConformParams {
         special_long_edges: true,
+        lone_edges: true,
         ..params()
     };
     let out = conform(&net, &box_mesh(), &keep, Par::Seq).unwrap();
@@ -435,4 +437,53 @@ fn an_arc_between_r_max_and_two_r_min_is_a_special_long_edge() {
     );
     let r = check_absolute(&out.network, 1.0, 1.5, Par::Seq).unwrap();
     assert_eq!((r.long_edges, r.special_long_edges), (1, 0));
+}
+
+#[test]
+fn a_lone_edge_goes_unless_kept_but_a_spur_or_a_longer_curve_stays() {
+    // r_min 1, r_max 1.5: a free curve 1.2 long is one edge of S with two free ends.
+    let lone = (line([10.0, 20.0, 0.0], [11.2, 20.0, 0.0], 12), 1.0);
+    let out = conform(
+        &curves(std::slice::from_ref(&lone)),
+        &box_mesh(),
+        &params(),
+        Par::Seq,
+    )
+    .unwrap();
+    assert_eq!(out.stats.output_edges, 0);
+    assert_eq!(out.stats.lone_dropped, 1);
+    assert_eq!(out.stats.long_dropped, 0);
+    let keep = ConformParams {
+        lone_edges: true,
+        ..params()
+    };
+    let out = conform(&curves(&[lone]), &box_mesh(), &keep, Par::Seq).unwrap();
+    assert_eq!(out.stats.output_edges, 1);
+    assert_eq!(out.stats.lone_dropped, 0);
+    let [a, b] = [0, 1].map(|k| out.network.vertices[k].position);
+    assert!((vec3::dist(a, b) - 1.2).abs() < 1e-12);
+
+    // A free curve of two edges, and a spur of one edge at the middle of a long line (a
+    // junction, so one end is not free), stay.
+    let net = curves(&[
+        (line([10.0, 20.0, 0.0], [12.4, 20.0, 0.0], 24), 1.0),
+        (line([0.0, 0.0, 0.0], [10.0, 0.0, 0.0], 40), 1.0),
+        (line([5.0, 0.0, 0.0], [5.0, 1.2, 0.0], 12), 1.0),
+    ]);
+    let out = conform(&net, &box_mesh(), &params(), Par::Seq).unwrap();
+    assert_conforming(&out.network, 1.0);
+    assert_eq!(out.stats.lone_dropped, 0);
+    let spur_tip = out
+        .network
+        .vertices
+        .iter()
+        .filter(|v| v.position == [5.0, 1.2, 0.0])
+        .count();
+    let pair_ends = out
+        .network
+        .vertices
+        .iter()
+        .filter(|v| v.position == [10.0, 20.0, 0.0] || v.position == [12.4, 20.0, 0.0])
+        .count();
+    assert_eq!((spur_tip, pair_ends), (1, 2));
 }

@@ -56,7 +56,7 @@ pub struct Problem {
     pub edges: Vec<[u32; 2]>,
     /// w(e) ≥ 0.
     pub weight: Vec<f64>,
-    /// Edges that cannot be kept (long edges): b_e = 0.
+    /// Edges that cannot be kept (long edges; lone edges unless kept): b_e = 0.
     pub fixed_zero: Vec<bool>,
     /// Short edges (shorter than r_min).
     pub short: Vec<bool>,
