@@ -182,7 +182,7 @@ pub(crate) fn ensure_regular_file(path: &Path) -> io::Result<()> {
     }
 }
 
-/// blake3 of a file's content, hex. Only regular files ([`ensure_regular_file`]); the node
+/// blake3 of a file's content, hex. Only regular files (`ensure_regular_file`); the node
 /// that reads the path reports the error.
 pub fn hash_file(path: &Path) -> io::Result<String> {
     ensure_regular_file(path)?;

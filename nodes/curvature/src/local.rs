@@ -88,7 +88,7 @@ pub fn tangent_basis(n: V3) -> (V3, V3) {
 }
 
 /// The minimal rotation taking unit `from` to unit `to`, applied to `x`
-/// (R = I + [v]× + [v]×² / (1 + c), v = from × to, c = from · to). Opposite normals: `-x`.
+/// (R = I + \[v\]× + \[v\]×² / (1 + c), v = from × to, c = from · to). Opposite normals: `-x`.
 #[inline]
 pub fn rotate_between(from: V3, to: V3, x: V3) -> V3 {
     let c = vec3::dot(from, to);

@@ -1,5 +1,5 @@
 //! Consistent orientation of principal directions (thesis §2.5.1.1 step 2; Ohtake, Belyaev,
-//! Seidel 2004 [OBS04]).
+//! Seidel 2004 \[OBS04\]).
 //!
 //! Principal directions are line fields: each vertex's t_max is only defined up to sign, and the
 //! extremality coefficient e_max = ∇k_max · t_max flips with it. Ridge detection looks for sign

@@ -1,8 +1,8 @@
 //! `curvature.polynomial`: principal curvatures, directions and extremality coefficients from a
 //! local bivariate polynomial fitted at every vertex (thesis §2.4, "Curvature from Local
 //! Bivariate Polynomial Fitting"; Yoshizawa, Belyaev, Seidel 2005, "Fast and robust detection
-//! of crest lines on meshes" [YBS05], with the adjacent-normal cubic approximation of
-//! Goldfeather and Interrante 2004 [GI04]).
+//! of crest lines on meshes" \[YBS05\], with the adjacent-normal cubic approximation of
+//! Goldfeather and Interrante 2004 \[GI04\]).
 //!
 //! At vertex p with unit normal n and a tangent frame (e1, e2), every vertex q of the n-ring
 //! gives local coordinates (x, y, z) and is fitted by the YBS05 cubic

@@ -1,6 +1,6 @@
 //! `curvature.shape_operator`: curvature from a discrete shape operator, derivatives from
 //! piecewise-linear gradients (thesis §2.4, "Curvature from Discrete Differential Operators";
-//! Hildebrandt, Polthier, Wardetzky 2005 [HPW05]; per-face tensors as in Rusinkiewicz 2004,
+//! Hildebrandt, Polthier, Wardetzky 2005 \[HPW05\]; per-face tensors as in Rusinkiewicz 2004,
 //! "Estimating curvatures and their derivatives on triangle meshes").
 //!
 //! 0. Vertex normals use the weights of Max 1999, exact on spheres; with angle weights the

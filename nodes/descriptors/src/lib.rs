@@ -1,11 +1,11 @@
 //! crestflow node family `descriptors`: feature-curve descriptors and curve correspondences
 //! (thesis §3.1, Gehre et al. 2016).
 //!
-//! - `descriptors.curve_hks` ([`curve_hks`]): heat kernel signature of a curve (§3.1.1).
-//! - `descriptors.curve_gics` ([`curve_gics`]): geodesic iso-curve signature (§3.1.2).
-//! - `match.curves` ([`match_curves`]): nearest and Hungarian matching of two networks'
+//! - `descriptors.curve_hks` ([`mod@curve_hks`]): heat kernel signature of a curve (§3.1.1).
+//! - `descriptors.curve_gics` ([`mod@curve_gics`]): geodesic iso-curve signature (§3.1.2).
+//! - `match.curves` ([`mod@match_curves`]): nearest and Hungarian matching of two networks'
 //!   curves by descriptor distance (§3.1.4).
-//! - `eval.curve_matching` ([`curve_matching_eval`]): accuracy against ground truth and the
+//! - `eval.curve_matching` ([`mod@curve_matching_eval`]): accuracy against ground truth and the
 //!   ROC curve of thesis Fig. 3.6.
 //!
 //! [`descriptor`] holds the shared descriptor type and the distances of §3.1.1.1 and

@@ -1,7 +1,7 @@
 //! crestflow node family `eval`: measurements that end in a [`Report`](crestflow_flow::Report),
 //! which experiments collect into comparison tables.
 //!
-//! - `eval.curvature_error` ([`curvature_error`]): a curvature field against the closed-form
+//! - `eval.curvature_error` ([`mod@curvature_error`]): a curvature field against the closed-form
 //!   curvature of an analytic shape (thesis §2.1.2, §2.4).
 
 use crestflow_flow::Registry;

@@ -24,8 +24,8 @@
 //! - `Direct`: `H` acts on each column of C separately, `(A + α diag(D_{·j})) c_j = b_j`, so
 //!   the exact minimiser is k dense Cholesky solves of size k (used to check CG).
 //!
-//! Adding a curve pair (Algorithm 5.1): [`CurveMapSolver::add_pair`] adds its two k × k
-//! products to `A` and `B`; [`CurveMapSolver::solve`] restarts CG from the previous map. The
+//! Adding a curve pair (Algorithm 5.1): [`CurveSystem::add_pair`] adds its two k × k
+//! products to `A` and `B`; [`CurveSystem::solve_cg`] restarts CG from the previous map. The
 //! node takes an optional `initial` map to warm-start the same way.
 
 use serde::{Deserialize, Serialize};

@@ -3,13 +3,13 @@
 //! - `fmap.landmarks` ([`landmarks`]): corresponding vertex pairs read from a text file.
 //! - `curves.shortest_path` ([`shortest_path`]): corresponding curves between landmark pairs,
 //!   traced by Dijkstra along mesh edges (thesis §5.2.2).
-//! - `fmap.curve_constrained` ([`curve_constrained`]): the curve-constrained functional map of
+//! - `fmap.curve_constrained` ([`mod@curve_constrained`]): the curve-constrained functional map of
 //!   eq. 5.5, solved by conjugate gradients on precomputed k×k terms (Algorithms 5.1, 5.2).
 //! - `fmap.descriptor` ([`descriptor`]): the descriptor-preservation baseline (eq. 2.7 + 2.8)
 //!   with heat or wave kernel signatures.
-//! - `fmap.point_map` ([`point_map`]): nearest neighbours in the spectral embedding, with an
+//! - `fmap.point_map` ([`mod@point_map`]): nearest neighbours in the spectral embedding, with an
 //!   optional ZoomOut refinement; `fmap.save_point_map` writes it as text.
-//! - `fmap.transfer` ([`transfer`]) and `fmap.render_colors` ([`render_colors`]): a colour
+//! - `fmap.transfer` ([`mod@transfer`]) and `fmap.render_colors` ([`render_colors`]): a colour
 //!   field carried from source to target and drawn as a PNG (thesis Fig. 5.6–5.9).
 //! - `eval.correspondence` ([`eval_correspondence`]): geodesic error of a point map against a
 //!   ground truth (Princeton protocol, Kim, Lipman, Funkhouser 2011).

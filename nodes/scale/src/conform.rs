@@ -31,7 +31,7 @@
 //!
 //! The loop stops when an iteration removes, collapses and resamples nothing (or after
 //! `max_iterations`); a final pass then removes, lightest first, any edge still violating a
-//! condition of [`crate::check`], so the output always passes `scale.check`
+//! condition of [`mod@crate::check`], so the output always passes `scale.check`
 //! (`repaired_edges` counts those removals; 0 when the loop converged).
 
 use serde::{Deserialize, Serialize};

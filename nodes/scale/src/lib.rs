@@ -1,11 +1,11 @@
 //! crestflow node family `scale`: feature curve networks adapted to a prescribed scale (thesis
 //! §4.3; Gehre, Lim & Kobbelt 2016, "Adapting feature curve networks to a prescribed scale").
 //!
-//! - `scale.conform` ([`conform`]): resampling, conflict detection, exact selection of the best
+//! - `scale.conform` ([`mod@conform`]): resampling, conflict detection, exact selection of the best
 //!   conflict-free subset by a binary linear program ([`ilp`], good_lp with the pure-Rust
 //!   microlp solver, or HiGHS in builds with the `highs` feature), short-edge collapses,
 //!   iterated until stable (Fig. 4.7).
-//! - `scale.check` ([`check`]): counts the violations of scale conformity of any network.
+//! - `scale.check` ([`mod@check`]): counts the violations of scale conformity of any network.
 //!
 //! The geometric predicates shared by both are in [`conflicts`]; arc resampling in
 //! [`resample`]; the graph form of a network in [`network`].

@@ -5,7 +5,7 @@
 //!   [`SelectedModel`]: Bayesian model selection of the transformations that explain the
 //!   curves (§4.2.2, eq. 4.1, heuristic §4.2.2.1), each curve's assignment, log-likelihoods
 //!   and Bayes ratios, and a Report.
-//! - `selection.complete` ([`complete`]): FCN + [`SelectedModel`] → completed FCN, templates,
+//! - `selection.complete` ([`mod@complete`]): FCN + [`SelectedModel`] → completed FCN, templates,
 //!   components and a Report (§4.2.3: noise removal, connected components, consolidation by
 //!   longest shortest paths, grid origins, gaps, template copies).
 //!

@@ -3,8 +3,8 @@
 //!
 //! - [`sparse`]: the sparse matrix type, the cotangent Laplacian and lumped mass matrix, and a
 //!   reusable sparse Cholesky solver — the sparse API other families build on.
-//! - `spectral.laplacian` ([`laplacian`]): `L` and `M` of a mesh as a [`LaplacianOperator`].
-//! - `spectral.eigenbasis` ([`eigenbasis`]): the k smallest eigenpairs of `L φ = λ M φ` as an
+//! - `spectral.laplacian` ([`mod@laplacian`]): `L` and `M` of a mesh as a [`LaplacianOperator`].
+//! - `spectral.eigenbasis` ([`mod@eigenbasis`]): the k smallest eigenpairs of `L φ = λ M φ` as an
 //!   [`EigenBasis`], by block shift-invert Lanczos.
 
 use crestflow_flow::Registry;

@@ -4,10 +4,10 @@
 //! Mitra, Guibas & Pauly 2006). Evidence from reoccurrence is what makes a curve meaningful
 //! (thesis Ch. 3–4).
 //!
-//! - `symmetry.blast` ([`blast`]): FCN + mesh → [`CurveMatches`] (per curve pair: best
+//! - `symmetry.blast` ([`mod@blast`]): FCN + mesh → [`CurveMatches`] (per curve pair: best
 //!   transformations from binned 7-D voting, affinities, point correspondences).
-//! - `symmetry.cluster` ([`cluster`]): [`CurveMatches`] → [`TransformClusters`].
-//! - `symmetry.orbits` ([`orbits`]): [`TransformClusters`] → [`Orbits`] (translation grids,
+//! - `symmetry.cluster` ([`mod@cluster`]): [`CurveMatches`] → [`TransformClusters`].
+//! - `symmetry.orbits` ([`mod@orbits`]): [`TransformClusters`] → [`Orbits`] (translation grids,
 //!   rotations by 360°/n, reflections) and a `Report`.
 //! - `symmetry.draw` ([`draw`]): curves coloured by orbit and by cluster (PLY, PNG).
 //!

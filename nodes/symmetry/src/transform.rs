@@ -1,5 +1,5 @@
 //! Rigid transformations x ↦ R x + t and the Kabsch best rotation (thesis §3.2.2: the rotation
-//! between two curve segments, "similar to ICP" [BM92]; Kabsch 1976).
+//! between two curve segments, "similar to ICP" \[BM92\]; Kabsch 1976).
 //!
 //! Rotations are stored as 3×3 matrices and exposed as unit quaternions (w, x, y, z) with
 //! w ≥ 0, since q and −q are the same rotation (the 7-D voting space of §3.2.2).
