@@ -486,19 +486,6 @@ pub(crate) fn special_long_edges(g: &Graph, s: &Scale) -> Vec<bool> {
     special
 }
 
-/// The edges of `g` that are lone: neither end belongs to another edge.
-fn lone_edges(g: &Graph) -> Vec<bool> {
-    let mut degree = vec![0u32; g.pos.len()];
-    for &[a, b] in &g.edges {
-        degree[a as usize] += 1;
-        degree[b as usize] += 1;
-    }
-    g.edges
-        .iter()
-        .map(|&[a, b]| a != b && degree[a as usize] == 1 && degree[b as usize] == 1)
-        .collect()
-}
-
 /// The selection problem of step 3 for graph `g`, the number of its vertex conflicts, and of
 /// the lone edges it fixes to 0. Long edges (except special long ones) and, unless
 /// `params.lone_edges`, lone edges are fixed to 0.
@@ -517,11 +504,6 @@ pub fn build_problem(
         .collect();
     let conf = find_conflicts(s, &g.pos, &g.edges, par);
     let special = special_long_edges(g, s);
-    let lone = if params.lone_edges {
-        vec![false; ne]
-    } else {
-        lone_edges(g)
-    };
     let mut on_loop = vec![false; ne];
     for a in g.arcs() {
         if a.closed {
@@ -539,6 +521,14 @@ pub fn build_problem(
         })
         .collect();
     let inc = incidence(g.pos.len(), &g.edges);
+    // Lone: neither end belongs to another edge.
+    let lone: Vec<bool> = g
+        .edges
+        .iter()
+        .map(|&[a, b]| {
+            !params.lone_edges && a != b && inc[a as usize].len() == 1 && inc[b as usize].len() == 1
+        })
+        .collect();
     let mut pairs = Vec::new();
     let quarter = std::f64::consts::FRAC_PI_4;
     if params.eta_smooth > 0.0 {
