@@ -1100,17 +1100,24 @@ fn valence_collapses_reach_what_flips_cannot() {
     // Version 23 ended at valence-6 shares of 0.866 (ellipsoid), 0.862 (sphere) and 0.801
     // (bunny at 2 %); the collapses after the rounds give 0.883, 0.875 and 0.821, with the
     // farthest input vertex where it was (0.045 L, 0.018 L, 0.337 L; measured).
+    // On a curved patch the middle of the edge lies below the surface and the fan around it
+    // passes under the two vertices it replaces, which the 0.1 L test refuses; at the
+    // centroid of the ring, on the input (where the relaxation after the collapses takes the
+    // vertex anyway), the collapse may pass. With the middle alone (version 38, measured) the
+    // shares were 0.8896, 0.8834 and 0.8782 after 29, 33 and 17 collapses; with the centroid
+    // 0.8900, 0.8867 and 0.8788 after 33, 42 and 20 (4, 10 and 3 of them at the centroid),
+    // with the same smallest angles and farthest input vertices.
     let sphere = shapes::sphere(1.0, 5).unwrap();
     let ellipsoid = shapes::ellipsoid(1.0, 0.7, 0.5, 5, 0.0, 1).unwrap();
     let bunny = shared_mesh("organic/cgal_bunny00.off");
     // Only where the removed vertices stay near the new triangles: nothing is cut off.
     for (name, input, params, floor, reach) in [
-        ("ellipsoid", &ellipsoid, abs(0.05), 0.875, 0.06),
-        ("sphere", &sphere, abs(0.06), 0.87, 0.03),
-        ("bunny", &bunny, rel(0.02), 0.81, 0.35),
+        ("ellipsoid", &ellipsoid, abs(0.05), 0.8896, 0.04),
+        ("sphere", &sphere, abs(0.06), 0.8834, 0.025),
+        ("bunny", &bunny, rel(0.02), 0.8782, 0.31),
     ] {
         let bounds = (floor, 30.0, reach);
-        assert_valence_step(name, input, &params, "valence_collapses", bounds);
+        assert_valence_step(name, input, &params, "valence_collapses_recentred", bounds);
     }
 }
 

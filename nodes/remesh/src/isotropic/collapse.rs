@@ -108,6 +108,25 @@ impl State<'_> {
         improve: bool,
         cos_min: f64,
     ) -> bool {
+        self.merge_allowed_to(h, into_origin, None, stretch2, improve, cos_min)
+    }
+
+    /// [`Self::collapse_allowed_at`] with the merged vertex at `p` instead of
+    /// [`Self::merged_position`].
+    pub(super) fn collapse_allowed_to(&self, h: u32, p: V3, stretch2: f64, cos_min: f64) -> bool {
+        self.merge_allowed_to(h, false, Some(p), stretch2, false, cos_min)
+    }
+
+    /// [`Self::merge_allowed`] with the merged vertex at `at`, or where the merge puts it.
+    fn merge_allowed_to(
+        &self,
+        h: u32,
+        into_origin: bool,
+        at: Option<V3>,
+        stretch2: f64,
+        improve: bool,
+        cos_min: f64,
+    ) -> bool {
         let (mut a, mut b) = (self.he.from(h), self.he.to(h));
         if into_origin {
             std::mem::swap(&mut a, &mut b);
@@ -125,7 +144,7 @@ impl State<'_> {
                 return false;
             }
         }
-        let p = self.merged_position_into(a, b);
+        let p = at.unwrap_or_else(|| self.merged_position_into(a, b));
         let chain = matches!(self.role[a as usize], Role::Chain(_));
         let hm = self.size[a as usize].min(self.size[b as usize]);
         self.lengths_ok(a, p, hm, chain, stretch2)
@@ -157,6 +176,14 @@ impl State<'_> {
     /// local target length, and marks the target as touched in this sweep.
     pub(super) fn apply_collapse(&mut self, pick: u32, touched: &mut [bool]) {
         self.apply_merge(pick, false, touched);
+    }
+
+    /// [`Self::apply_collapse`] with the merged vertex at `p`, on input face `face`.
+    pub(super) fn apply_collapse_to(&mut self, pick: u32, p: V3, face: u32, touched: &mut [bool]) {
+        let b = self.he.to(pick);
+        self.apply_merge(pick, false, touched);
+        self.he.set_position(b, p);
+        self.hint[b as usize] = face;
     }
 
     /// [`Self::apply_collapse`], or with `into_origin` the other way round: the target of

@@ -51,11 +51,13 @@
 //! deviation of the four corners of its pair (a 5–5 edge between two 7s becomes one regular vertex
 //! between two regular ones, where a flip would make 4s and 8s), under the tests of step 2 with
 //! edges up to 1.5 L and angles down to 30° instead of 20°, and only where both removed vertices
-//! lie within 0.1 L of the triangles that replace them; two relaxation steps follow (bunny at 2 %:
-//! valence-6 share 0.801 → 0.821, ellipsoid 0.866 → 0.883). Before those steps, the inverse: a free
-//! vertex of valence 7 or more splits into two joined vertices when that lowers the squared valence
-//! deviation of it and the two ring vertices that gain an edge (a 7 with two 5s becomes a 5 and a 6
-//! beside two 6s, an 8 two 6s), with the two vertices at their rings' centroids on the input, their
+//! lie within 0.1 L of the triangles that replace them, with the merged vertex at the edge's
+//! middle or, where that fails, at its ring's centroid on the input (report
+//! `valence_collapses_recentred`; the sphere's valence-6 share 0.883 → 0.887); two relaxation
+//! steps follow (bunny at 2 %: valence-6 share 0.801 → 0.821, ellipsoid 0.866 → 0.883). Before
+//! those steps, the inverse: a free vertex of valence 7 or more splits into two joined vertices
+//! when that lowers the squared valence deviation of it and the two ring vertices that gain an
+//! edge (a 7 with two 5s becomes a 5 and a 6 beside two 6s, an 8 two 6s), with the two vertices at their rings' centroids on the input, their
 //! triangles at 30° or more (or no smaller than before), turned by at most 60°, sides of 0.6–4/3 of
 //! the local target, and no input vertex nearby left farther than before and than 0.15 L (bunny at
 //! 2 %: 0.869 → 0.878; cgal_fandisk_large at 2 %, every sharp edge kept: 0.538 → 0.551 and smallest
@@ -446,6 +448,9 @@ struct State<'a> {
     corners_merged: usize,
     /// Collapses made for the valences after the rounds ([`State::collapse_for_valence`]).
     valence_collapses: usize,
+    /// Of those, the ones whose merged vertex went to the centroid of its ring, where the
+    /// middle of the edge failed the tests.
+    valence_collapses_recentred: usize,
     /// Vertex splits made for the valences after the rounds ([`State::split_for_valence`]).
     valence_splits: usize,
     /// Far points reached by moving a vertex part of the way ([`State::pull_partway`]).
@@ -684,6 +689,7 @@ fn isotropic_with(
         collapses: 0,
         corners_merged: 0,
         valence_collapses: 0,
+        valence_collapses_recentred: 0,
         valence_splits: 0,
         far_pulls_partway: 0,
         far_splits_partway: 0,
@@ -811,6 +817,10 @@ fn isotropic_with(
         .set("collapses", st.collapses)
         .set("corners_merged", st.corners_merged)
         .set("valence_collapses", st.valence_collapses)
+        .set(
+            "valence_collapses_recentred",
+            st.valence_collapses_recentred,
+        )
         .set("valence_splits", st.valence_splits)
         .set("far_pulls_partway", st.far_pulls_partway)
         .set("far_splits_partway", st.far_splits_partway)
@@ -1232,7 +1242,7 @@ pub struct IsotropicNode;
 impl NodeKind for IsotropicNode {
     type Params = IsotropicParams;
     const KIND: &'static str = "remesh.isotropic";
-    const VERSION: u32 = 38;
+    const VERSION: u32 = 39;
     const DOC: &'static str = "Isotropic remeshing at a target edge length (Botsch & Kobbelt \
         2004, thesis §5.1.1): splits > 4/3 L, collapses < 4/5 L, valence-improving flips, \
         tangential relaxation (relaxation: Centroids, or Lloyd for Voronoi-cell centroids and \

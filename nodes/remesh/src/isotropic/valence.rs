@@ -12,6 +12,10 @@ impl State<'_> {
     /// [`VALENCE_COLLAPSE_STRETCH`]·L and no angle below 30° that was not there, and the two
     /// vertices removed must lie within [`VALENCE_COLLAPSE_OFF`]·L of the triangles that
     /// replace them (on a curved patch or a thin part one vertex fewer cuts the surface).
+    /// The merged vertex goes to the middle of the edge; where that fails the tests, to the
+    /// centroid of its ring on the input, where the relaxation after these collapses would
+    /// take it anyway (the middle of an edge across a curved patch lies below the surface,
+    /// and its fan cuts under the two vertices it replaces).
     /// A few sweeps; a vertex next to a collapse waits for the next one. Returns the number
     /// of collapses.
     pub(super) fn collapse_for_valence(&mut self, par: Par) -> usize {
@@ -50,15 +54,22 @@ impl State<'_> {
                 let dd = valence[d as usize] - self.target_valence(d);
                 let before = (va - 6).pow(2) + (vb - 6).pow(2) + dc * dc + dd * dd;
                 let after = (va + vb - 10).pow(2) + (dc - 1).pow(2) + (dd - 1).pow(2);
-                if after >= before
-                    || !self.collapse_allowed_at(h, stretch2, false, COS_FLIP_MIN_ANGLE)
+                if after >= before {
+                    continue;
+                }
+                if self.collapse_allowed_at(h, stretch2, false, COS_FLIP_MIN_ANGLE)
+                    && self.merge_stays_within(h, off2)
                 {
+                    self.apply_collapse(h, &mut touched);
+                } else if let Some((p, face)) = self.merged_ring_centroid(h).filter(|&(p, _)| {
+                    self.collapse_allowed_to(h, p, stretch2, COS_FLIP_MIN_ANGLE)
+                        && self.merge_stays_within_at(h, p, off2)
+                }) {
+                    self.apply_collapse_to(h, p, face, &mut touched);
+                    self.valence_collapses_recentred += 1;
+                } else {
                     continue;
                 }
-                if !self.merge_stays_within(h, off2) {
-                    continue;
-                }
-                self.apply_collapse(h, &mut touched);
                 valence[b as usize] = va + vb - 4;
                 valence[c as usize] -= 1;
                 valence[d as usize] -= 1;
@@ -380,10 +391,38 @@ impl State<'_> {
     /// Whether both ends of `h` keep their old places within `√off2` of the triangles that
     /// replace them when `h` collapses (at [`Self::merged_position`]).
     pub(super) fn merge_stays_within(&self, h: u32, off2: f64) -> bool {
+        self.merge_stays_within_at(h, self.merged_position(h), off2)
+    }
+
+    /// [`Self::merge_stays_within`] with the merged vertex at `p`.
+    fn merge_stays_within_at(&self, h: u32, p: V3, off2: f64) -> bool {
         let (a, b) = (self.he.from(h), self.he.to(h));
-        let p = self.merged_position(h);
         self.merged_fan_dist2(a, b, p, self.he.position(a)) <= off2
             && self.merged_fan_dist2(a, b, p, self.he.position(b)) <= off2
+    }
+
+    /// Where the relaxation would take the vertex that merges the two ends of `h`: the
+    /// centroid of their joint ring, projected onto the input (point, input face).
+    fn merged_ring_centroid(&self, h: u32) -> Option<(V3, u32)> {
+        let (a, b) = (self.he.from(h), self.he.to(h));
+        let mut ring: Vec<u32> = self.neighbor_iter(a).filter(|&u| u != b).collect();
+        for u in self.neighbor_iter(b) {
+            // The two apexes are in both rings: counted once.
+            if u != a && !ring.contains(&u) {
+                ring.push(u);
+            }
+        }
+        let n = ring.len();
+        let sum = ring
+            .iter()
+            .fold([0.0; 3], |s, &u| vec3::add(s, self.he.position(u)));
+        if n == 0 {
+            return None;
+        }
+        let c = vec3::scale(sum, 1.0 / n as f64);
+        // The walk only: where it gives up, no such place (the BVH is not built for it).
+        let hit = self.proj.project_walk(c, self.hint[b as usize], self.l)?;
+        Some((hit.point, hit.face))
     }
 
     /// Squared distance from `q` to the triangles that stay around `a` and `b` when they
@@ -400,8 +439,6 @@ impl State<'_> {
     }
 }
 
-/// Longest edge, in target lengths, that a collapse for the valences may leave
-/// ([`State::collapse_for_valence`]); the relaxation after it evens them out.
 /// A vertex split planned by [`State::plan_vertex_split`]: the ring of the vertex, the two
 /// ring positions that become the apexes of the new edge, and the two vertices' places (point,
 /// input face).
@@ -414,6 +451,8 @@ struct VertexSplit {
     b: (V3, u32),
 }
 
+/// Longest edge, in target lengths, that a collapse for the valences may leave
+/// ([`State::collapse_for_valence`]); the relaxation after it evens them out.
 const VALENCE_COLLAPSE_STRETCH: f64 = 1.5;
 
 /// How far (in target lengths) a vertex split for the valences may leave an input vertex near
