@@ -57,9 +57,10 @@
 //! steps follow (bunny at 2 %: valence-6 share 0.801 → 0.821, ellipsoid 0.866 → 0.883). Before
 //! those steps, the inverse: a free vertex of valence 7 or more splits into two joined vertices
 //! when that lowers the squared valence deviation of it and the two ring vertices that gain an
-//! edge (a 7 with two 5s becomes a 5 and a 6 beside two 6s, an 8 two 6s), with the two vertices at their rings' centroids on the input, their
-//! triangles at 30° or more (or no smaller than before), turned by at most 60°, sides of 0.6–4/3 of
-//! the local target, and no input vertex nearby left farther than before and than 0.15 L (bunny at
+//! edge (a 7 with two 5s becomes a 5 and a 6 beside two 6s, an 8 two 6s), with the two vertices
+//! at their rings' centroids on the input, their triangles at 30° or more (or no smaller than
+//! before), turned by at most 60°, sides of 0.6–4/3 of the local target, and no input vertex
+//! nearby left farther than before and than 0.15 L (bunny at
 //! 2 %: 0.869 → 0.878; cgal_fandisk_large at 2 %, every sharp edge kept: 0.538 → 0.551 and smallest
 //! angle 17.25° → 18.89°). Then a triangle still below 30° loses its shortest edge when that
 //! collapse raises the smallest angle around it, allowing edges up to 2 L (under the feature rules

@@ -412,14 +412,13 @@ impl State<'_> {
                 ring.push(u);
             }
         }
-        let n = ring.len();
+        if ring.is_empty() {
+            return None;
+        }
         let sum = ring
             .iter()
             .fold([0.0; 3], |s, &u| vec3::add(s, self.he.position(u)));
-        if n == 0 {
-            return None;
-        }
-        let c = vec3::scale(sum, 1.0 / n as f64);
+        let c = vec3::scale(sum, 1.0 / ring.len() as f64);
         // The walk only: where it gives up, no such place (the BVH is not built for it).
         let hit = self.proj.project_walk(c, self.hint[b as usize], self.l)?;
         Some((hit.point, hit.face))
