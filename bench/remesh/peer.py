@@ -19,7 +19,10 @@ Grading (same code for every method): min angle (over all triangles, and over th
 with no corner on a sharp or boundary edge of the output), share of angles < 30 deg, share of
 valence-6 interior vertices, Hausdorff distance to the input (pymeshlab get_hausdorff_distance,
 both directions, all vertices + 200k face samples, relative to the input's bbox diagonal; in a
-fresh process each time, so that it does not depend on what was graded before), and
+fresh process each time, so that it does not depend on what was graded before), the same
+distance from a deterministic grid of samples on both surfaces with exact point-to-triangle
+distances (`hausdorff_dense_rel`, see `dense_hausdorff`: at most 2.9e-4 of the diagonal below
+the true distance; MeshLab's random samples can miss a small far region), and
 sharp-edge preservation: of the input's sharp edges (> 30 deg), how many have both ends and
 midpoint within 1e-4 of the diagonal of the output's sharp edges. Prints one JSON line per
 method and target.
@@ -144,6 +147,57 @@ def _hausdorff(VA, FA, VB, FB):
             "mean_dist_rel": (ab["mean"] + ba["mean"]) / 2 / d}
 
 
+DENSE_SPACING = 5e-4
+
+
+def _face_grid_points(V, F, spacing):
+    """Every vertex that a face uses, and on each face a barycentric grid of n subdivisions per
+    side, n = ceil(longest side / spacing): every point of the surface lies within
+    spacing / sqrt(3) of a sample (the circumradius bound of a grid cell)."""
+    longest = np.max([np.linalg.norm(V[F[:, k]] - V[F[:, (k + 1) % 3]], axis=1) for k in range(3)], 0)
+    ns = np.maximum(np.ceil(longest / spacing).astype(np.int64), 1)
+    yield V[np.unique(F)]
+    for n in np.unique(ns):
+        n = int(n)
+        ij = np.array([(i, j) for i in range(n + 1) for j in range(n + 1 - i)], float) / n
+        w0 = 1.0 - ij[:, 0] - ij[:, 1]
+        faces = F[ns == n]
+        # At most ~2M points at a time.
+        step = max(1, 2_000_000 // len(ij))
+        for k in range(0, len(faces), step):
+            f = faces[k:k + step]
+            P = (V[f[:, 0]][:, None, :] * w0[None, :, None]
+                 + V[f[:, 1]][:, None, :] * ij[None, :, 0, None]
+                 + V[f[:, 2]][:, None, :] * ij[None, :, 1, None])
+            yield P.reshape(-1, 3)
+
+
+def _one_sided(VA, FA, VB, FB, spacing):
+    import gpytoolbox as gp
+    worst = 0.0
+    for P in _face_grid_points(VA, FA, spacing):
+        d2, _, _ = gp.squared_distance(P, VB, F=FB, use_cpp=True)
+        worst = max(worst, float(d2.max()))
+    return math.sqrt(worst)
+
+
+def dense_hausdorff(VA, FA, VB, FB):
+    """Hausdorff distance by exact point-to-triangle distances (gpytoolbox) from a deterministic
+    grid of samples on both surfaces, spacing DENSE_SPACING of the input's diagonal: the same
+    figure on every run, at most DENSE_SPACING / sqrt(3) of the diagonal below the true
+    distance. MeshLab's 200k random samples can miss a small far region: on the subdivided
+    armadillo at 1 %, CGAL's output graded 0.00364 there and 0.00431 here (`eval.mesh_distance`,
+    refined to 1e-4: between 0.00430 and 0.00440)."""
+    d = diag(VA)
+    used = np.unique(FA)
+    remap = np.zeros(len(VA), np.int64)
+    remap[used] = np.arange(len(used))
+    VA, FA = VA[used], remap[FA]
+    spacing = DENSE_SPACING * d
+    h = max(_one_sided(VA, FA, VB, FB, spacing), _one_sided(VB, FB, VA, FA, spacing))
+    return {"hausdorff_dense_rel": h / d}
+
+
 def seg_dist(P, A, B):
     """Distance from each point of P to the nearest segment [A_i, B_i] (chunked brute force
     over a scipy k-d tree of segment midpoints for candidates)."""
@@ -233,6 +287,7 @@ def grade(VA, FA, VB, FB):
     r = quality(VB, FB)
     r["min_angle_nonfeature_deg"] = min_angle_away_from_features(VB, FB)
     r.update(hausdorff(VA, FA, VB, FB))
+    r.update(dense_hausdorff(VA, FA, VB, FB))
     r.update(features_kept(VA, FA, VB, FB))
     return r
 

@@ -13,8 +13,9 @@
 # bench/remesh/subdivide.py).
 #
 # The Rust bench (release) remeshes and writes its outputs; bench/remesh/peer.py runs the peers
-# and grades every output with the same code (min angle, valence-6 share, pymeshlab Hausdorff,
-# sharp edges kept). Prints the JSON lines, then a table with the time ratios.
+# and grades every output with the same code (min angle, valence-6 share, pymeshlab Hausdorff
+# and a dense deterministic one, sharp edges kept). Prints the JSON lines, then a table with
+# the time ratios.
 # PEERS (default pymeshlab,gpytoolbox,cgal) picks the peers; PEERS="" grades ours only.
 # REPAIR=1 loads our inputs with `repair: true` (non-manifold meshes; bench/remesh/corpus.sh).
 # BOUNDARY_TOLERANCE=F sets remesh.isotropic's boundary_tolerance (default 0.25) in our runs.
@@ -81,18 +82,18 @@ done
 import json, sys
 rows = [json.loads(l) for l in open(sys.argv[1]) if l.strip()]
 print()
-print("| mesh | target | method | time s | fastest peer / this | min angle | min angle off features | angles < 30° | valence 6 | Hausdorff (diag) | sharp edges kept / in | V out |")
-print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+print("| mesh | target | method | time s | fastest peer / this | min angle | min angle off features | angles < 30° | valence 6 | Hausdorff (diag) | dense Hausdorff | sharp edges kept / in | V out |")
+print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
 for key in sorted({(r["mesh"], r["target_pct"]) for r in rows}):
     group = [r for r in rows if (r["mesh"], r["target_pct"]) == key and "time_s" in r]
     peers = [r["time_s"] for r in group if not r["method"].startswith("crestflow")]
     fastest = min(peers) if peers else float("nan")
     for r in group:
-        print("| %s | %g %% | %s | %.3f | %.1f× | %.2f° | %.2f° | %.4f | %.3f | %.5f | %d / %d | %d |" % (
+        print("| %s | %g %% | %s | %.3f | %.1f× | %.2f° | %.2f° | %.4f | %.3f | %.5f | %.5f | %d / %d | %d |" % (
             r["mesh"], r["target_pct"], r["method"], r["time_s"], fastest / r["time_s"],
             r["min_angle_deg"], r.get("min_angle_nonfeature_deg") or float("nan"),
             r["frac_angles_lt_30"], r["valence6_share"] or 0,
-            r["hausdorff_rel"], r["sharp_edges_kept"], r["sharp_edges_in"], r["n_vertices"]))
+            r["hausdorff_rel"], r.get("hausdorff_dense_rel", float("nan")), r["sharp_edges_kept"], r["sharp_edges_in"], r["n_vertices"]))
     for r in rows:
         if (r["mesh"], r["target_pct"]) == key and "error" in r:
             print("| %s | %g %% | %s | failed: %s |" % (r["mesh"], r["target_pct"], r["method"], r["error"]))

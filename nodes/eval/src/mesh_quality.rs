@@ -11,7 +11,8 @@
 //! - with a target length: `target_abs`, `edge_mean_over_target`, `frac_edges_in_range` (share
 //!   of edges within [4/5, 4/3] of the target, the remesher's own bounds);
 //! - `vertices`, `faces`, `edges`, `boundary_edges`, `interior_vertices`, `euler_characteristic`;
-//! - with a reference mesh: `hausdorff_rel`, `mean_rel`, `rms_rel` (relative to the
+//! - with a reference mesh: `hausdorff_rel` (refined to within `tolerance`),
+//!   `hausdorff_upper_rel` (a certified upper bound), `mean_rel`, `rms_rel` (relative to the
 //!   reference's bounding-box diagonal) from [`crate::mesh_distance`], `vertices_reference`.
 
 use serde::{Deserialize, Serialize};
@@ -41,6 +42,10 @@ pub struct MeshQualityParams {
     pub samples: usize,
     /// Seed of the face sampling (default 0).
     pub seed: u64,
+    /// How far below the true Hausdorff distance the reported one may lie, as a fraction of
+    /// the reference's bounding-box diagonal (default 1e-4, range 0..=1; 0: samples only).
+    /// See `eval.mesh_distance`.
+    pub tolerance: f64,
 }
 
 impl Default for MeshQualityParams {
@@ -50,6 +55,7 @@ impl Default for MeshQualityParams {
             relative: true,
             samples: 100_000,
             seed: 0,
+            tolerance: 1e-4,
         }
     }
 }
@@ -59,6 +65,7 @@ impl Validate for MeshQualityParams {
         let mut v = Vec::new();
         check_range(&mut v, "target", self.target, 0.0, 1e12);
         check_range(&mut v, "samples", self.samples, 0, 50_000_000);
+        check_range(&mut v, "tolerance", self.tolerance, 0.0, 1.0);
         v
     }
 }
@@ -185,10 +192,17 @@ pub fn mesh_quality(
             &MeshDistanceParams {
                 samples: params.samples,
                 seed: params.seed,
+                tolerance: params.tolerance,
             },
             par,
         )?;
-        for k in ["hausdorff_rel", "mean_rel", "rms_rel", "hausdorff_abs"] {
+        for k in [
+            "hausdorff_rel",
+            "hausdorff_upper_rel",
+            "mean_rel",
+            "rms_rel",
+            "hausdorff_abs",
+        ] {
             if let Some(x) = d.num(k) {
                 r.set(k, x);
             }
@@ -204,13 +218,13 @@ pub struct MeshQualityNode;
 impl NodeKind for MeshQualityNode {
     type Params = MeshQualityParams;
     const KIND: &'static str = "eval.mesh_quality";
-    const VERSION: u32 = 1;
+    const VERSION: u32 = 2;
     const DOC: &'static str = "Triangle quality of a mesh, the figures of isotropic remeshing \
         (thesis §5.1.1, Botsch & Kobbelt 2004): min/max angle, share of angles below 30°, \
         share of valence-6 interior vertices, edge-length mean and coefficient of variation \
-        (and against a target length), counts; with a reference mesh, the Hausdorff, mean and \
-        RMS distance to it relative to its bbox diagonal (via eval.mesh_distance). Output: a \
-        Report.";
+        (and against a target length), counts; with a reference mesh, the Hausdorff (refined \
+        to within `tolerance`, with a certified upper bound), mean and RMS distance to it \
+        relative to its bbox diagonal (via eval.mesh_distance). Output: a Report.";
 
     fn inputs() -> Vec<Port> {
         vec![

@@ -76,6 +76,12 @@ fn hausdorff_to_a_reference_and_thread_independence() {
         h > 0.8 * sag_centre && h < 1.5 * sag_centre,
         "{h} vs {sag_centre}"
     );
+    // The refined figure comes with a certified bound within the default tolerance.
+    let upper = a.num("hausdorff_upper_rel").unwrap() * diag;
+    assert!(
+        upper >= h && upper - h <= 1e-4 * diag + 1e-15,
+        "{h} .. {upper}"
+    );
     let icosa_valences = a.num("valence6_share").unwrap();
     // Level-2 icosphere: 162 vertices, the 12 icosahedron corners have valence 5.
     assert!((icosa_valences - 150.0 / 162.0).abs() < 1e-12);

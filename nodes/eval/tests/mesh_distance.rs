@@ -136,11 +136,14 @@ fn bvh_equals_brute_force() {
 fn report_matches_brute_force_figures() {
     let a = ellipsoid(1.0, 0.8, 0.6, 1, 0.2, 1).unwrap();
     let b = ellipsoid(1.05, 0.75, 0.62, 2, 0.2, 2).unwrap();
+    // The sampled figures alone (the refinement is tested below).
     let params = MeshDistanceParams {
         samples: 500,
         seed: 9,
+        tolerance: 0.0,
     };
     let r = mesh_distance(&a, &b, &params, Par::Seq).unwrap();
+    assert_eq!(r.num("hausdorff_upper_rel"), None);
     // Same samples as the node draws (the second mesh uses a derived seed).
     let pa = sample_surface(&a, 500, 9, Par::Seq);
     let pb = sample_surface(&b, 500, 9 ^ 0x5A5A_5A5A_5A5A_5A5A, Par::Rayon);
@@ -184,6 +187,7 @@ fn sphere_against_scaled_sphere() {
     let params = MeshDistanceParams {
         samples: 20_000,
         seed: 1,
+        ..Default::default()
     };
     let rep = mesh_distance(&a, &b, &params, Par::Rayon).unwrap();
     let h = rep.num("hausdorff_abs").unwrap();
@@ -205,6 +209,77 @@ fn sphere_against_scaled_sphere() {
         "mean {mean}"
     );
     assert!(rep.num("a_to_b.hausdorff_rel").unwrap() < rep.num("b_to_a.hausdorff_rel").unwrap());
+}
+
+/// The unit square as two triangles at z = 0, and a 40 × 40 grid of it with a conical pit of
+/// depth 0.1 and radius 0.2 around the centre: the square's farthest point from the pit lies
+/// above its bottom, far from every corner of the square.
+fn square_over_a_pit() -> (TriMesh, TriMesh) {
+    let square = grid(1, 0.0);
+    let pit = grid(40, 0.0);
+    let positions = pit
+        .positions
+        .iter()
+        .map(|&[x, y, _]| {
+            let r = ((x - 0.5).powi(2) + (y - 0.5).powi(2)).sqrt();
+            [x, y, -0.1 * (1.0 - r / 0.2).max(0.0)]
+        })
+        .collect();
+    (square.clone(), pit.with_positions(positions))
+}
+
+#[test]
+fn refinement_finds_the_far_point_that_samples_miss() {
+    let (square, pit) = square_over_a_pit();
+    let diag = square.bbox_diagonal();
+    let tol = 1e-4;
+    let only_vertices = MeshDistanceParams {
+        samples: 0,
+        seed: 0,
+        tolerance: 0.0,
+    };
+    let refined = MeshDistanceParams {
+        tolerance: tol,
+        ..only_vertices.clone()
+    };
+    // The square's corners lie on the pitted grid: from them alone, no distance at all.
+    let r0 = mesh_distance(&square, &pit, &only_vertices, Par::Seq).unwrap();
+    assert_eq!(r0.num("a_to_b.hausdorff_rel"), Some(0.0));
+    let r = mesh_distance(&square, &pit, &refined, Par::Rayon).unwrap();
+    let found = r.num("a_to_b.hausdorff_rel").unwrap() * diag;
+    let upper = r.num("a_to_b.hausdorff_upper_rel").unwrap() * diag;
+    // Brute force over a fine grid of the square: the largest distance lies between what the
+    // refinement found and its upper bound, which are within the tolerance of each other.
+    let n = 200;
+    let mut dense = 0.0f64;
+    for j in 0..=n {
+        for i in 0..=n {
+            let p = [i as f64 / n as f64, j as f64 / n as f64, 0.0];
+            dense = dense.max(brute_force(&pit, p));
+        }
+    }
+    let centre = brute_force(&pit, [0.5, 0.5, 0.0]);
+    assert!(
+        dense >= centre && centre > 0.08,
+        "centre {centre}, dense {dense}"
+    );
+    assert!(
+        found <= dense + 1e-12,
+        "found {found} beyond the dense maximum {dense}"
+    );
+    assert!(found >= dense - tol * diag, "found {found}, dense {dense}");
+    assert!(
+        upper >= dense,
+        "upper {upper} below the dense maximum {dense}"
+    );
+    assert!(upper - found <= tol * diag + 1e-15, "{found} .. {upper}");
+    assert_eq!(r.num("faces_unrefined"), Some(0.0));
+    assert!(r.num("refined_points").unwrap() > 0.0);
+    // Every point of the pitted grid is within 0.1 of the plane, and its bottom is at 0.1.
+    let back = r.num("b_to_a.hausdorff_rel").unwrap() * diag;
+    assert!((back - 0.1).abs() < 1e-12, "{back}");
+    // The same figures at any thread count.
+    assert_eq!(r, mesh_distance(&square, &pit, &refined, Par::Seq).unwrap());
 }
 
 #[test]
@@ -234,6 +309,7 @@ fn sequential_equals_parallel() {
     let p = MeshDistanceParams {
         samples: 5000,
         seed: 4,
+        ..Default::default()
     };
     let s = mesh_distance(&a, &b, &p, Par::Seq).unwrap();
     let r = mesh_distance(&a, &b, &p, Par::Rayon).unwrap();
@@ -286,8 +362,22 @@ fn bad_inputs_are_named() {
     let too_many = MeshDistanceParams {
         samples: 60_000_000,
         seed: 0,
+        tolerance: 0.0,
     };
     assert_eq!(too_many.validate().len(), 1);
+    for tolerance in [-1e-4, f64::NAN, 2.0] {
+        let bad = MeshDistanceParams {
+            tolerance,
+            ..Default::default()
+        };
+        let issues = bad.validate();
+        assert_eq!(issues.len(), 1, "{tolerance}");
+        assert_eq!(issues[0].field, "tolerance");
+        assert!(matches!(
+            mesh_distance(&good, &good, &bad, Par::Seq),
+            Err(MeshDistanceError::Params(m)) if m.starts_with("tolerance")
+        ));
+    }
     assert!(matches!(
         mesh_distance(&good, &good, &too_many, Par::Seq),
         Err(MeshDistanceError::Params(_))

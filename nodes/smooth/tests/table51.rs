@@ -58,6 +58,7 @@ fn distance(clean: &TriMesh, m: &TriMesh) -> (f64, f64) {
     let p = MeshDistanceParams {
         samples: 100_000,
         seed: 0,
+        ..Default::default()
     };
     let r = mesh_distance(clean, m, &p, Par::Rayon).expect("valid meshes");
     (
