@@ -124,6 +124,10 @@ def pipeline(rng, repair):
         "shift: %r" % pick([1e-5, 1e-9, 1e-2]),
         "max_steps: %d" % pick([1000, 3]),
     ])
+    quality = ", ".join([
+        "samples: %d" % pick([100000, 0, 7]),
+        "tolerance: %r" % pick([1e-4, 0.0, 1e-12, 1.0]),
+    ])
     scale = pick([0.02, 0.005, 0.3])
     return """Graph(params: {"mesh": "m.off", "out": "out"}, nodes: {
  "load": (kind: "io.load_mesh", params: (path: "$mesh", repair: %s)),
@@ -137,7 +141,8 @@ def pipeline(rng, repair):
            inputs: {"curves": "conform.network", "mesh": "load.mesh"}),
  "remesh": (kind: "remesh.isotropic", params: (%s),
             inputs: {"mesh": "load.mesh", "curves": "check.network"}),
- "quality": (kind: "eval.mesh_quality", inputs: {"mesh": "remesh.mesh", "reference": "load.mesh"}),
+ "quality": (kind: "eval.mesh_quality", params: (%s),
+             inputs: {"mesh": "remesh.mesh", "reference": "load.mesh"}),
  "lap": (kind: "spectral.laplacian", inputs: {"mesh": "load.mesh"}),
  "eig": (kind: "spectral.eigenbasis", params: (%s), inputs: {"operator": "lap.operator"}),
  "heat": (kind: "geodesic.heat", params: (vertices: [0]), inputs: {"mesh": "load.mesh"}),
@@ -147,7 +152,7 @@ def pipeline(rng, repair):
           inputs: {"report": "quality.report"}),
 })
 """ % ("true" if repair else "false", pick([2, 1, 3]), pick([4, 3]), pick([1.5, 0.5, 1.0]),
-       scale, scale, remesh, eig)
+       scale, scale, remesh, quality, eig)
 
 
 # Meshes every node must handle with default parameters: after the loader's clean-up, and

@@ -262,10 +262,14 @@ fn summarize(hits: &[(f64, u32)]) -> OneSided {
     }
 }
 
-/// Sub-triangles one face may cut before it stops refining (a face of the armadillo's 1 %
-/// remesh needs a few dozen; a large face over a finely curved surface may need more, and then
-/// only widens the reported upper bound).
-const FACE_BUDGET: usize = 4096;
+/// Cuts one face may make before it stops refining: [`TOTAL_BUDGET`] shared evenly among
+/// the faces, at least [`MIN_FACE_BUDGET`] and at most [`MAX_FACE_BUDGET`] each (on the
+/// meshes of the remeshing benchmark no face runs out). A face out of budget only widens the
+/// reported upper bound; the even share keeps a tolerance far below what the meshes can
+/// resolve (two coplanar meshes at 1e-12) from costing more than a few million cuts.
+const TOTAL_BUDGET: usize = 4_000_000;
+const MIN_FACE_BUDGET: usize = 16;
+const MAX_FACE_BUDGET: usize = 4096;
 
 /// The largest distance from the surface of `mesh` to the surface of `bvh`, refined to within
 /// `tol` (see the module docs). `vertex_hits` holds the distance of every vertex of `mesh`
@@ -281,6 +285,8 @@ pub fn refine_max(
     par: Par,
 ) -> Refined {
     const INV_SQRT3: f64 = 0.577_350_269_189_625_8;
+    let face_budget =
+        (TOTAL_BUDGET / mesh.n_faces().max(1)).clamp(MIN_FACE_BUDGET, MAX_FACE_BUDGET);
     let parts = par.map_collect(mesh.n_faces(), |f| {
         let t = mesh.triangles[f];
         let corners = mesh.face_points(f);
@@ -289,16 +295,31 @@ pub fn refine_max(
         let mut found = floor;
         let mut upper_left = 0.0f64;
         let mut measured = 0usize;
-        let mut budget = FACE_BUDGET;
-        let mut stack = vec![(corners, d, hint)];
-        while let Some((p, d, hint)) = stack.pop() {
-            let bound = face_bound(bvh, p, d, hint, INV_SQRT3);
+        let mut budget = face_budget;
+        // Largest bound first: the cuts go where the distance may still exceed what was
+        // found, and a face out of budget leaves only its smallest bounds uncut. The heap
+        // holds (bound's bits, piece index): bounds are non-negative (+0.0 added turns a
+        // -0.0 into +0.0), so their bits sort as they do; ties go to the later piece.
+        type Piece = ([V3; 3], [f64; 3], [u32; 3]);
+        let mut pieces: Vec<Piece> = Vec::new();
+        let mut heap = std::collections::BinaryHeap::new();
+        let push = |heap: &mut std::collections::BinaryHeap<(u64, u32)>,
+                    pieces: &mut Vec<Piece>,
+                    piece: Piece| {
+            let bound = face_bound(bvh, piece.0, piece.1, piece.2, INV_SQRT3) + 0.0;
+            heap.push((bound.to_bits(), pieces.len() as u32));
+            pieces.push(piece);
+        };
+        push(&mut heap, &mut pieces, (corners, d, hint));
+        while let Some((bits, i)) = heap.pop() {
+            let bound = f64::from_bits(bits);
+            let (p, d, hint) = pieces[i as usize];
             if bound <= found + tol {
-                continue;
+                break;
             }
             if budget == 0 {
-                upper_left = upper_left.max(bound);
-                continue;
+                upper_left = bound;
+                break;
             }
             budget -= 1;
             let mid = |i: usize, j: usize| vec3::lerp(p[i], p[j], 0.5);
@@ -310,22 +331,27 @@ pub fn refine_max(
             }
             let dm = hm.map(|h| h.distance);
             let fm = hm.map(|h| h.face);
-            stack.push((
-                [p[0], m[0], m[2]],
-                [d[0], dm[0], dm[2]],
-                [hint[0], fm[0], fm[2]],
-            ));
-            stack.push((
-                [m[0], p[1], m[1]],
-                [dm[0], d[1], dm[1]],
-                [fm[0], hint[1], fm[1]],
-            ));
-            stack.push((
-                [m[2], m[1], p[2]],
-                [dm[2], dm[1], d[2]],
-                [fm[2], fm[1], hint[2]],
-            ));
-            stack.push((m, dm, fm));
+            let children = [
+                (
+                    [p[0], m[0], m[2]],
+                    [d[0], dm[0], dm[2]],
+                    [hint[0], fm[0], fm[2]],
+                ),
+                (
+                    [m[0], p[1], m[1]],
+                    [dm[0], d[1], dm[1]],
+                    [fm[0], hint[1], fm[1]],
+                ),
+                (
+                    [m[2], m[1], p[2]],
+                    [dm[2], dm[1], d[2]],
+                    [fm[2], fm[1], hint[2]],
+                ),
+            ];
+            for child in children {
+                push(&mut heap, &mut pieces, child);
+            }
+            push(&mut heap, &mut pieces, (m, dm, fm));
         }
         (found, upper_left, measured, usize::from(budget == 0))
     });

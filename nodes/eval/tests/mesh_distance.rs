@@ -283,6 +283,28 @@ fn refinement_finds_the_far_point_that_samples_miss() {
 }
 
 #[test]
+fn a_tolerance_below_what_the_meshes_resolve_stops_at_the_budget() {
+    // Parallel planes 0.125 apart, triangulated differently: where a piece of one face lies
+    // over two faces of the other, the bound from a single face exceeds 0.125 by the square
+    // of the in-plane offset, so a tolerance of 1e-12 cannot be met before the cuts run out.
+    let a = grid(4, 0.0);
+    let b = grid(7, 0.125);
+    let p = MeshDistanceParams {
+        tolerance: 1e-12,
+        ..Default::default()
+    };
+    let rep = mesh_distance(&a, &b, &p, Par::Rayon).unwrap();
+    let diag = a.bbox_diagonal();
+    let h = rep.num("hausdorff_rel").unwrap() * diag;
+    let upper = rep.num("hausdorff_upper_rel").unwrap() * diag;
+    assert!((h - 0.125).abs() < 1e-12, "{h} {rep:?}");
+    assert!(rep.num("faces_unrefined").unwrap() > 0.0, "{rep:?}");
+    // What is left uncut is small: the bound over it stays close to the distance.
+    assert!((0.125..0.125 + 1e-3).contains(&upper), "{upper}");
+    assert_eq!(rep, mesh_distance(&a, &b, &p, Par::Seq).unwrap());
+}
+
+#[test]
 fn offset_plane_is_at_constant_distance() {
     let a = grid(10, 0.0);
     let b = grid(7, 0.125);
