@@ -273,9 +273,9 @@ const MAX_FACE_BUDGET: usize = 4096;
 
 /// The largest distance from the surface of `mesh` to the surface of `bvh`, refined to within
 /// `tol` (see the module docs). `vertex_hits` holds the distance of every vertex of `mesh`
-/// and the face it was measured to, `floor` the largest distance measured so far (the samples'). Returns the largest distance
-/// found, a certified upper bound, the midpoints measured and the faces that ran out of
-/// budget.
+/// and the face it was measured to, `floor` the largest distance measured so far (the
+/// samples'). Returns the largest distance found, a certified upper bound, the midpoints
+/// measured and the faces that ran out of budget.
 pub fn refine_max(
     mesh: &TriMesh,
     bvh: &TriangleBvh,
@@ -296,17 +296,24 @@ pub fn refine_max(
         let mut upper_left = 0.0f64;
         let mut measured = 0usize;
         let mut budget = face_budget;
+        let mut ran_out = false;
         // Largest bound first: the cuts go where the distance may still exceed what was
         // found, and a face out of budget leaves only its smallest bounds uncut. The heap
         // holds (bound's bits, piece index): bounds are non-negative (+0.0 added turns a
-        // -0.0 into +0.0), so their bits sort as they do; ties go to the later piece.
+        // -0.0 into +0.0; a NaN, from distances that overflowed, counts as infinite), so
+        // their bits sort as they do; ties go to the later piece.
         type Piece = ([V3; 3], [f64; 3], [u32; 3]);
         let mut pieces: Vec<Piece> = Vec::new();
         let mut heap = std::collections::BinaryHeap::new();
         let push = |heap: &mut std::collections::BinaryHeap<(u64, u32)>,
                     pieces: &mut Vec<Piece>,
                     piece: Piece| {
-            let bound = face_bound(bvh, piece.0, piece.1, piece.2, INV_SQRT3) + 0.0;
+            let bound = face_bound(bvh, piece.0, piece.1, piece.2, INV_SQRT3);
+            let bound = if bound.is_nan() {
+                f64::INFINITY
+            } else {
+                bound + 0.0
+            };
             heap.push((bound.to_bits(), pieces.len() as u32));
             pieces.push(piece);
         };
@@ -319,6 +326,7 @@ pub fn refine_max(
             }
             if budget == 0 {
                 upper_left = bound;
+                ran_out = true;
                 break;
             }
             budget -= 1;
@@ -353,7 +361,7 @@ pub fn refine_max(
             }
             push(&mut heap, &mut pieces, (m, dm, fm));
         }
-        (found, upper_left, measured, usize::from(budget == 0))
+        (found, upper_left, measured, usize::from(ran_out))
     });
     let mut r = Refined {
         max: floor,
