@@ -29,6 +29,9 @@
 //! - `hausdorff_upper_rel` (and per direction): a certified upper bound, at most
 //!   `tolerance` above `hausdorff_rel` unless a face ran out of its refinement budget
 //!   (reported by `faces_unrefined`); absent with `tolerance: 0`;
+//! - `a_to_b.farthest_x`, `_y`, `_z` (and `b_to_a.`): where that direction's distance is
+//!   reached, the point of `a` farthest from `b` (absolute coordinates), to find what a
+//!   remesh cut off;
 //! - `hausdorff_abs`, `bbox_diagonal`, `samples_a`, `samples_b`, `refined_points` (midpoints
 //!   measured by the refinement).
 
@@ -189,6 +192,8 @@ pub fn sample_surface(mesh: &TriMesh, n: usize, seed: u64, par: Par) -> Vec<V3> 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct OneSided {
     pub max: f64,
+    /// Index of the first point at distance `max`.
+    pub argmax: usize,
     pub mean: f64,
     pub rms: f64,
     pub n: usize,
@@ -244,16 +249,21 @@ pub fn one_sided(points: &[V3], bvh: &TriangleBvh, par: Par) -> OneSided {
 fn summarize(hits: &[(f64, u32)]) -> OneSided {
     let d = hits;
     let mut max = 0.0f64;
+    let mut argmax = 0;
     let mut sum = 0.0;
     let mut sum2 = 0.0;
-    for &(x, _) in d {
-        max = max.max(x);
+    for (i, &(x, _)) in d.iter().enumerate() {
+        if x > max {
+            max = x;
+            argmax = i;
+        }
         sum += x;
         sum2 += x * x;
     }
     let n = d.len().max(1) as f64;
     OneSided {
         max,
+        argmax,
         mean: sum / n,
         rms: (sum2 / n).sqrt(),
         n: d.len(),
@@ -293,6 +303,7 @@ pub fn refine_max(
         let d = t.map(|v| vertex_hits[v as usize].0);
         let hint = t.map(|v| vertex_hits[v as usize].1);
         let mut found = floor;
+        let mut farthest: Option<V3> = None;
         let mut upper_left = 0.0f64;
         let mut measured = 0usize;
         let mut budget = face_budget;
@@ -334,8 +345,11 @@ pub fn refine_max(
             let m = [mid(0, 1), mid(1, 2), mid(2, 0)];
             let hm = m.map(|x| bvh.closest_with_hint(x, hint[0]));
             measured += 3;
-            for h in &hm {
-                found = found.max(h.distance);
+            for (h, &x) in hm.iter().zip(&m) {
+                if h.distance > found {
+                    found = h.distance;
+                    farthest = Some(x);
+                }
             }
             let dm = hm.map(|h| h.distance);
             let fm = hm.map(|h| h.face);
@@ -361,16 +375,21 @@ pub fn refine_max(
             }
             push(&mut heap, &mut pieces, (m, dm, fm));
         }
-        (found, upper_left, measured, usize::from(ran_out))
+        (found, farthest, upper_left, measured, usize::from(ran_out))
     });
     let mut r = Refined {
         max: floor,
+        farthest: None,
         upper: 0.0,
         measured: 0,
         faces_unrefined: 0,
     };
-    for (found, upper_left, measured, spent) in parts {
-        r.max = r.max.max(found);
+    // In face order, the first of equal maxima: the same point at any thread count.
+    for (found, farthest, upper_left, measured, spent) in parts {
+        if let Some(x) = farthest.filter(|_| found > r.max) {
+            r.max = found;
+            r.farthest = Some(x);
+        }
         r.upper = r.upper.max(upper_left);
         r.measured += measured;
         r.faces_unrefined += spent;
@@ -384,6 +403,8 @@ pub fn refine_max(
 pub struct Refined {
     /// The largest distance measured (samples and midpoints).
     pub max: f64,
+    /// Where on the surface it was measured, when a midpoint beat the samples.
+    pub farthest: Option<V3>,
     /// No point of the surface is farther than this.
     pub upper: f64,
     /// Midpoints measured.
@@ -458,6 +479,14 @@ pub fn mesh_distance(
     });
     let (max_ab, max_ba) = refined.map_or((ab.max, ba.max), |(x, y)| (x.max, y.max));
     let hausdorff = max_ab.max(max_ba);
+    // Where each direction's distance is reached: a midpoint of the refinement, else the
+    // sample at the maximum.
+    let far_ab = refined
+        .and_then(|(x, _)| x.farthest)
+        .unwrap_or(pa[ab.argmax.min(pa.len() - 1)]);
+    let far_ba = refined
+        .and_then(|(_, y)| y.farthest)
+        .unwrap_or(pb[ba.argmax.min(pb.len() - 1)]);
 
     let mut r = Report::new();
     r.set("hausdorff_rel", rel(hausdorff))
@@ -473,6 +502,11 @@ pub fn mesh_distance(
         .set("bbox_diagonal", diag)
         .set("samples_a", ab.n)
         .set("samples_b", ba.n);
+    for (side, p) in [("a_to_b", far_ab), ("b_to_a", far_ba)] {
+        for (axis, x) in ["x", "y", "z"].iter().zip(p) {
+            r.set(format!("{side}.farthest_{axis}"), x);
+        }
+    }
     if let Some((x, y)) = refined {
         r.set("hausdorff_upper_rel", rel(x.upper.max(y.upper)))
             .set("a_to_b.hausdorff_upper_rel", rel(x.upper))

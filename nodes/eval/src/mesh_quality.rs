@@ -13,7 +13,10 @@
 //! - `vertices`, `faces`, `edges`, `boundary_edges`, `interior_vertices`, `euler_characteristic`;
 //! - with a reference mesh: `hausdorff_rel` (refined to within `tolerance`),
 //!   `hausdorff_upper_rel` (a certified upper bound), `mean_rel`, `rms_rel` (relative to the
-//!   reference's bounding-box diagonal) from [`crate::mesh_distance`], `vertices_reference`.
+//!   reference's bounding-box diagonal) from [`crate::mesh_distance`], `vertices_reference`;
+//!   `farthest_reference_x`, `_y`, `_z`: the point of the reference farthest from the mesh
+//!   (what the mesh cuts off), and `farthest_mesh_*`: the point of the mesh farthest from the
+//!   reference.
 
 use serde::{Deserialize, Serialize};
 
@@ -205,6 +208,17 @@ pub fn mesh_quality(
         ] {
             if let Some(x) = d.num(k) {
                 r.set(k, x);
+            }
+        }
+        // Where the distance is reached each way (`a` is the reference).
+        for (from, to) in [
+            ("a_to_b", "farthest_reference"),
+            ("b_to_a", "farthest_mesh"),
+        ] {
+            for axis in ["x", "y", "z"] {
+                if let Some(x) = d.num(&format!("{from}.farthest_{axis}")) {
+                    r.set(format!("{to}_{axis}"), x);
+                }
             }
         }
         r.set("vertices_reference", reference.n_vertices());

@@ -76,6 +76,10 @@ fn hausdorff_to_a_reference_and_thread_independence() {
         h > 0.8 * sag_centre && h < 1.5 * sag_centre,
         "{h} vs {sag_centre}"
     );
+    // The farthest point of the coarse mesh lies that far inside the unit sphere (the fine
+    // mesh's own sag, under 0.002 at this level, aside).
+    let far = ["x", "y", "z"].map(|k| a.num(&format!("farthest_mesh_{k}")).unwrap());
+    assert!((1.0 - h - vec3::norm(far)).abs() < 0.002, "{far:?} at {h}");
     // The refined figure comes with a certified bound within the default tolerance.
     let upper = a.num("hausdorff_upper_rel").unwrap() * diag;
     assert!(

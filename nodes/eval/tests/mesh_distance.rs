@@ -278,6 +278,12 @@ fn refinement_finds_the_far_point_that_samples_miss() {
     // Every point of the pitted grid is within 0.1 of the plane, and its bottom is at 0.1.
     let back = r.num("b_to_a.hausdorff_rel").unwrap() * diag;
     assert!((back - 0.1).abs() < 1e-12, "{back}");
+    // Where: above the pit's bottom, and the bottom itself.
+    let at = |side: &str| ["x", "y", "z"].map(|a| r.num(&format!("{side}.farthest_{a}")).unwrap());
+    let top = at("a_to_b");
+    assert!(vec3::dist(top, [0.5, 0.5, 0.0]) < 0.01, "{top:?}");
+    assert_eq!(brute_force(&pit, top), found);
+    assert_eq!(at("b_to_a"), [0.5, 0.5, -0.1]);
     // The same figures at any thread count.
     assert_eq!(r, mesh_distance(&square, &pit, &refined, Par::Seq).unwrap());
 }
