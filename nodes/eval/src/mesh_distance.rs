@@ -11,13 +11,14 @@
 //! Samples alone only bound the Hausdorff distance from below: a far region smaller than the
 //! spacing of the samples is missed (on the armadillo subdivided once, remeshed by CGAL at 1 %
 //! of the diagonal, MeshLab's 200k random samples per side gave 0.00364 of the diagonal; the
-//! distance lies between 0.00430 and 0.00440). So the largest distance is then refined, face by face, to within `tolerance` (branch and
-//! bound, in the manner of libigl's `hausdorff`): the distance to the other surface is
-//! 1-Lipschitz, and on a face it is at most the largest distance of the face's corners to any
-//! one triangle of the other mesh (the distance to a triangle is convex, so its maximum over a
-//! face lies at a corner). A face whose bound does not exceed the largest distance found so
-//! far plus the tolerance is done; any other is cut into four at its side midpoints, which are
-//! measured. Each face starts from the samples' maximum and refines on its own, so the figure
+//! distance lies between 0.00430 and 0.00440). So the largest distance is then refined, face
+//! by face, to within `tolerance` (branch and bound, in the manner of libigl's `hausdorff`):
+//! the distance to the other surface is 1-Lipschitz, and on a face it is at most the largest
+//! distance of the face's corners to any one triangle of the other mesh (the distance to a
+//! triangle is convex, so its maximum over a face lies at a corner). A face whose bound does
+//! not exceed the largest distance found so far plus the tolerance is done; any other is cut
+//! into four at its side midpoints, which are measured, the piece with the largest bound
+//! first. Each face starts from the samples' maximum and refines on its own, so the figure
 //! does not depend on the thread count.
 //!
 //! Report (distances divided by the bounding-box diagonal of `a`):
@@ -294,7 +295,6 @@ pub fn refine_max(
     tol: f64,
     par: Par,
 ) -> Refined {
-    const INV_SQRT3: f64 = 0.577_350_269_189_625_8;
     let face_budget =
         (TOTAL_BUDGET / mesh.n_faces().max(1)).clamp(MIN_FACE_BUDGET, MAX_FACE_BUDGET);
     let parts = par.map_collect(mesh.n_faces(), |f| {
@@ -319,7 +319,7 @@ pub fn refine_max(
         let push = |heap: &mut std::collections::BinaryHeap<(u64, u32)>,
                     pieces: &mut Vec<Piece>,
                     piece: Piece| {
-            let bound = face_bound(bvh, piece.0, piece.1, piece.2, INV_SQRT3);
+            let bound = face_bound(bvh, piece.0, piece.1, piece.2);
             let bound = if bound.is_nan() {
                 f64::INFINITY
             } else {
@@ -418,11 +418,12 @@ pub struct Refined {
 /// Lipschitz bound (largest corner distance plus the largest distance of a point of the
 /// triangle from its nearest corner, at most the longest side / sqrt 3) and, for each known
 /// face, the largest distance of the corners to that one face.
-fn face_bound(bvh: &TriangleBvh, p: [V3; 3], d: [f64; 3], hint: [u32; 3], inv_sqrt3: f64) -> f64 {
+fn face_bound(bvh: &TriangleBvh, p: [V3; 3], d: [f64; 3], hint: [u32; 3]) -> f64 {
+    const INV_SQRT3: f64 = 0.577_350_269_189_625_8;
     let longest = vec3::dist(p[0], p[1])
         .max(vec3::dist(p[1], p[2]))
         .max(vec3::dist(p[2], p[0]));
-    let mut bound = d[0].max(d[1]).max(d[2]) + longest * inv_sqrt3;
+    let mut bound = d[0].max(d[1]).max(d[2]) + longest * INV_SQRT3;
     for (k, &f) in hint.iter().enumerate() {
         if f == u32::MAX || hint[..k].contains(&f) {
             continue;
@@ -480,13 +481,13 @@ pub fn mesh_distance(
     let (max_ab, max_ba) = refined.map_or((ab.max, ba.max), |(x, y)| (x.max, y.max));
     let hausdorff = max_ab.max(max_ba);
     // Where each direction's distance is reached: a midpoint of the refinement, else the
-    // sample at the maximum.
+    // sample at the maximum (both meshes have faces, so there are samples).
     let far_ab = refined
         .and_then(|(x, _)| x.farthest)
-        .unwrap_or(pa[ab.argmax.min(pa.len() - 1)]);
+        .unwrap_or(pa[ab.argmax]);
     let far_ba = refined
         .and_then(|(_, y)| y.farthest)
-        .unwrap_or(pb[ba.argmax.min(pb.len() - 1)]);
+        .unwrap_or(pb[ba.argmax]);
 
     let mut r = Report::new();
     r.set("hausdorff_rel", rel(hausdorff))
