@@ -96,6 +96,12 @@ impl<'a> Projector<'a> {
             .get_or_init(|| Bvh::new_with(self.mesh, self.par == Par::Rayon))
     }
 
+    /// The squared distance from `p` to input face `f` (`None` when `f` is not a face): an
+    /// upper bound of the distance to the input, and of what a walk from `f` finds.
+    pub fn dist2_to_face(&self, f: u32, p: V3) -> Option<f64> {
+        ((f as usize) < self.mesh.n_faces()).then(|| self.test(f, p).0)
+    }
+
     fn test(&self, f: u32, p: V3) -> (f64, [f64; 3]) {
         let [a, b, c] = self.mesh.face_points(f as usize);
         closest_point_on_triangle(p, a, b, c)
