@@ -416,8 +416,8 @@ impl State<'_> {
             if dist2_within(p, after, bound2) > bound2 {
                 continue;
             }
-            let old = min_angle_cos(x(a), x(b), x(c)).max(min_angle_cos(x(b), x(a), x(d)));
-            let new = min_angle_cos(x(a), x(d), x(c)).max(min_angle_cos(x(b), x(c), x(d)));
+            let old = self.flipped_min_angle_cos(c, d, a, b);
+            let new = self.flipped_min_angle_cos(a, b, c, d);
             if new > old.max(COS_FAR_MOVE_MIN_ANGLE) {
                 continue;
             }

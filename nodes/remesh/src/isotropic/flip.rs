@@ -121,6 +121,14 @@ impl State<'_> {
         }
     }
 
+    /// The cosine of the smallest angle of the two triangles that flipping `a`–`b` (opposite
+    /// corners `c` and `d`) makes; with the diagonals swapped (`c, d, a, b`), of the two it
+    /// replaces.
+    pub(super) fn flipped_min_angle_cos(&self, a: u32, b: u32, c: u32, d: u32) -> f64 {
+        let p = |v: u32| self.he.position(v);
+        min_angle_cos(p(d), p(b), p(c)).max(min_angle_cos(p(c), p(a), p(d)))
+    }
+
     /// The squared distance of the middle of `x`–`y` from the input, by the projection walk
     /// from `x`'s face; `None` where the walk gives up (the flip tests that ask are not worth
     /// building the BVH for).
@@ -183,14 +191,13 @@ impl State<'_> {
             };
             let before = dev(a, 0) + dev(b, 0) + dev(c, 0) + dev(d, 0);
             let after = dev(a, -1) + dev(b, -1) + dev(c, 1) + dev(d, 1);
-            let p = |v: u32| self.he.position(v);
             let old = faces[fh as usize].0.max(faces[fg as usize].0);
             // Keep the surface: no flip across a fold steeper than the collapse limit, unless
             // the pair cuts across a crease of the input that the other diagonal follows
             // (then whatever the valences, if the angles allow).
             let (n1, n2) = (faces[fh as usize].1, faces[fg as usize].1);
             if vec3::dot(n1, n2) < cos_turn * vec3::norm(n1) * vec3::norm(n2) {
-                let new = min_angle_cos(p(d), p(b), p(c)).max(min_angle_cos(p(c), p(a), p(d)));
+                let new = self.flipped_min_angle_cos(a, b, c, d);
                 if new <= old.max(COS_FLIP_MIN_ANGLE)
                     && self.flip_follows_crease(a, b, c, d)
                     && self.he.flip_ok(h)
@@ -204,7 +211,7 @@ impl State<'_> {
             if after >= before && !maybe_sideways && !(old > COS_FLIP_MIN_ANGLE) {
                 continue;
             }
-            let new = min_angle_cos(p(d), p(b), p(c)).max(min_angle_cos(p(c), p(a), p(d)));
+            let new = self.flipped_min_angle_cos(a, b, c, d);
             // Valence flips keep the smallest angle of the pair above 30° (or do not lower
             // it); a pair with a smaller angle is flipped whenever that raises it (then no
             // flip can undo another, so the sweeps terminate). Angles as cosines.
@@ -329,13 +336,12 @@ impl State<'_> {
         let (a, b) = (self.he.from(h), self.he.to(h));
         let c = self.he.from(halfedge::prev(h));
         let d = self.he.from(halfedge::prev(g));
-        let p = |v: u32| self.he.position(v);
         // The angle test first: it is cheap, and most pairs fail it.
-        let old = min_angle_cos(p(a), p(b), p(c)).max(min_angle_cos(p(b), p(a), p(d)));
-        let new = min_angle_cos(p(d), p(b), p(c)).max(min_angle_cos(p(c), p(a), p(d)));
+        let old = self.flipped_min_angle_cos(c, d, a, b);
+        let new = self.flipped_min_angle_cos(a, b, c, d);
         // Then whether an end's input face is near the middle, which settles most of the
         // pairs left without a walk.
-        let mid = vec3::lerp(p(a), p(b), 0.5);
+        let mid = vec3::lerp(self.he.position(a), self.he.position(b), 0.5);
         let limit2 = (FAR_POINT * self.l).powi(2);
         let far_from = |v: u32| {
             self.proj
