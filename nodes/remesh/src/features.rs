@@ -83,6 +83,10 @@ pub struct FeatureEdges {
     /// (two boundary edges and no other feature edge) is a corner. Empty: such vertices follow
     /// the per-vertex turning rule of [`build_chains`].
     pub boundary_corner: Vec<bool>,
+    /// Chains of curve edges take the edge path's geometry, not the network's: set when no
+    /// relaxation will move the path's vertices onto the network's polyline (see
+    /// [`build_chains`]).
+    pub curves_on_path: bool,
     pub sharp: usize,
     pub from_curves: usize,
     pub segments_unjoined: usize,
@@ -645,7 +649,9 @@ pub fn mark_boundary_corners(
 }
 
 /// Splits the feature edges into chains; `corner_angle_deg` is the turning angle above which a
-/// two-edge feature vertex is a corner.
+/// two-edge feature vertex is a corner. A chain of curve edges has the network's points (its
+/// path vertices get parameters on them and are moved there by the remesher's relaxation),
+/// or, with [`FeatureEdges::curves_on_path`], the path's own.
 pub fn build_chains(mesh: &TriMesh, fe: &FeatureEdges, corner_angle_deg: f64) -> Chains {
     let topo = mesh.topology();
     let nv = mesh.n_vertices();
@@ -734,7 +740,7 @@ pub fn build_chains(mesh: &TriMesh, fe: &FeatureEdges, corner_angle_deg: f64) ->
         // Vertices that get a parameter: all but the ends, and the last one when the walk
         // stopped at an edge already taken rather than at a corner or back at the start.
         let inside = |i: usize| i < last || (vs[i] != start && !is_corner[vs[i] as usize]);
-        let pts = if all_curve {
+        let pts = if all_curve && !fe.curves_on_path {
             // The network's own geometry: the chain's ends, and the network vertices in
             // between; each path vertex between two of them gets the parameter of its closest
             // point on the segment joining them (never decreasing along the chain).

@@ -127,7 +127,7 @@
 //! junction whose curves reach the input's edges at two vertices); other feature
 //! vertices slide along their chain (the arc-length parametrised polyline of input feature
 //! edges, [`crate::chain`]; for a chain of curve edges, the network's own polyline, onto which
-//! its vertices move) to the middle of their two chain neighbours, or, where that would cut
+//! the relaxation moves its vertices, or the edge path without relaxation) to the middle of their two chain neighbours, or, where that would cut
 //! a bend, onto the sharpest bend between them; split feature edges
 //! get their new vertex at the middle of their stretch of chain. Every output feature edge
 //! stays within `feature_tolerance` · L of the stretch of chain it replaces: a slide or a
@@ -232,7 +232,9 @@ pub struct IsotropicParams {
     /// default 20 000 000).
     pub max_vertices: usize,
     /// Tangential relaxation sweeps per round, followed by one projection onto the input
-    /// (default 5, range 0..=100; 0 turns both off). More sweeps give rounder triangles.
+    /// (default 5, range 0..=100; 0 turns both off). More sweeps give rounder triangles. With
+    /// 0, curves from `curves` follow their path over the input's edges instead of the
+    /// network's polyline, since nothing moves the path's vertices onto it.
     pub smoothing_steps: usize,
     /// Chains of sharp edges that end freely at both ends and are shorter than this many
     /// target lengths are not kept (default 1, range [0, 1e6]; 0 keeps all). Boundaries and
@@ -595,6 +597,11 @@ fn isotropic_with(
     let proj = Projector::new_with(mesh, par);
     let sharp = params.sharp_edges.then_some(params.sharp_angle_deg);
     let mut fe = mark_features(mesh, sharp, curves, &proj)?;
+    // Only the relaxation moves a curve's path vertices onto the network's polyline. Without
+    // it they would stay off the points their parameters stand for, and a split of a path
+    // edge at the middle of its stretch of curve could land anywhere near it (on a coarse
+    // input, 2 L away: folds and piles of vertices); the curve then follows the path.
+    fe.curves_on_path = params.smoothing_steps == 0;
     mark_boundary_corners(mesh, &mut fe, l, params.corner_angle_deg);
     let chains = build_chains(mesh, &fe, params.corner_angle_deg);
     let chains = prune_short_sharp_chains(
@@ -1252,7 +1259,7 @@ pub struct IsotropicNode;
 impl NodeKind for IsotropicNode {
     type Params = IsotropicParams;
     const KIND: &'static str = "remesh.isotropic";
-    const VERSION: u32 = 41;
+    const VERSION: u32 = 42;
     const DOC: &'static str = "Isotropic remeshing at a target edge length (Botsch & Kobbelt \
         2004, thesis §5.1.1): splits > 4/3 L, collapses < 4/5 L, valence-improving flips, \
         tangential relaxation (relaxation: Centroids, or Lloyd for Voronoi-cell centroids and \
