@@ -86,7 +86,7 @@ fn a_curve_loop_is_the_networks_own_polygon() {
     ];
     let net = FeatureCurveNetwork::from_polylines(&square, &[(&[0, 1, 2, 3], true)]);
     let proj = Projector::new(&mesh);
-    let fe = mark_features(&mesh, None, Some(&net), &proj).unwrap();
+    let fe = mark_features(&mesh, None, Some(&net), &proj, f64::INFINITY).unwrap();
     let chains = build_chains(&mesh, &fe, 100.0);
     // Two loops: the grid's boundary (boundary edges are features) and the curve.
     assert_eq!(chains.points.len(), 2);
@@ -113,7 +113,7 @@ fn curve_ends_beside_a_point_are_trimmed_back_to_the_clearance() {
     let line: Vec<V3> = vec![[0.2, 0.5, 0.0], [0.8, 0.5, 0.0]];
     let net = FeatureCurveNetwork::from_polylines(&line, &[(&[0, 1], false)]);
     let proj = Projector::new(&mesh);
-    let mut fe = mark_features(&mesh, None, Some(&net), &proj).unwrap();
+    let mut fe = mark_features(&mesh, None, Some(&net), &proj, f64::INFINITY).unwrap();
     assert_eq!(fe.from_curves, 12);
     let boundary = fe.boundary;
     let chains = build_chains(&mesh, &fe, 100.0);
@@ -167,7 +167,7 @@ fn a_trimmed_end_next_to_a_network_vertex_is_trimmed_to_it() {
     let line: Vec<V3> = vec![[0.2, 0.5, 0.0], [0.6, 0.5, 0.0], [0.8, 0.5, 0.0]];
     let net = FeatureCurveNetwork::from_polylines(&line, &[(&[0, 1, 2], false)]);
     let proj = Projector::new(&mesh);
-    let mut fe = mark_features(&mesh, None, Some(&net), &proj).unwrap();
+    let mut fe = mark_features(&mesh, None, Some(&net), &proj, f64::INFINITY).unwrap();
     let chains = build_chains(&mesh, &fe, 100.0);
     let chains = trim_curve_ends_near(&mesh, &mut fe, chains, &[[0.86, 0.5, 0.0]], 0.2, 100.0);
     assert_eq!(fe.trimmed, 4);
@@ -203,7 +203,7 @@ fn boundary_corners_are_found_at_the_scale() {
     let n = 48;
     let mesh = staircase(n);
     let proj = Projector::new(&mesh);
-    let mut fe = mark_features(&mesh, None, None, &proj).unwrap();
+    let mut fe = mark_features(&mesh, None, None, &proj, f64::INFINITY).unwrap();
     let corners_at = |fe: &FeatureEdges| -> Vec<V3> {
         let chains = build_chains(&mesh, fe, 60.0);
         (0..mesh.n_vertices())
@@ -250,14 +250,14 @@ fn a_curve_along_a_ragged_boundary_follows_it() {
     let at = |i: u32, j: u32| [i as f64 / n as f64, j as f64 / n as f64, 0.0];
     let proj = Projector::new(&mesh);
     let along = FeatureCurveNetwork::from_polylines(&[at(4, 24), at(16, 24)], &[(&[0, 1], false)]);
-    let fe = mark_features(&mesh, None, Some(&along), &proj).unwrap();
+    let fe = mark_features(&mesh, None, Some(&along), &proj, f64::INFINITY).unwrap();
     assert_eq!(fe.from_curves, 0);
     assert_eq!(fe.count(), mesh.topology().boundary_edge_count());
     // A curve from the left side to the bottom across the corner at the origin: the way
     // along the boundary bends away from it (half its length at the corner), so it stays a
     // curve of inside edges.
     let across = FeatureCurveNetwork::from_polylines(&[at(0, 8), at(8, 0)], &[(&[0, 1], false)]);
-    let fe = mark_features(&mesh, None, Some(&across), &proj).unwrap();
+    let fe = mark_features(&mesh, None, Some(&across), &proj, f64::INFINITY).unwrap();
     assert!(fe.from_curves >= 8, "{} curve edges", fe.from_curves);
 }
 
@@ -272,7 +272,7 @@ fn a_crease_end_takes_the_place_of_a_boundary_corner_within_the_scale() {
     let at = |i: u32, j: u32| [i as f64 / n as f64, j as f64 / n as f64, 0.0];
     let net = FeatureCurveNetwork::from_polylines(&[at(3, 10), at(3, 0)], &[(&[0, 1], false)]);
     let proj = Projector::new(&mesh);
-    let mut fe = mark_features(&mesh, None, Some(&net), &proj).unwrap();
+    let mut fe = mark_features(&mesh, None, Some(&net), &proj, f64::INFINITY).unwrap();
     mark_boundary_corners(&mesh, &mut fe, 10.0 / n as f64, 60.0);
     let chains = build_chains(&mesh, &fe, 60.0);
     let corner_at = |p: V3| {
@@ -296,7 +296,7 @@ fn curves_along_a_boundary_give_way_to_it() {
     let proj = Projector::new(&mesh);
     let row = n / 2 - 1;
     let with_curve = || {
-        let mut fe = mark_features(&mesh, None, None, &proj).unwrap();
+        let mut fe = mark_features(&mesh, None, None, &proj, f64::INFINITY).unwrap();
         for (e, &[a, b]) in topo.edges.iter().enumerate() {
             if a / (n + 1) == row && b / (n + 1) == row {
                 fe.is_feature[e] = true;

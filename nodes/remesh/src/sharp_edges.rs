@@ -134,7 +134,7 @@ pub fn sharp_edges(
         });
     }
     let proj = Projector::new(mesh);
-    let mut fe = mark_features(mesh, Some(params.angle_deg), None, &proj)?;
+    let mut fe = mark_features(mesh, Some(params.angle_deg), None, &proj, f64::INFINITY)?;
     let topo = mesh.topology();
     if !params.boundaries {
         for (e, &[_, f1]) in topo.edge_faces.iter().enumerate() {

@@ -2377,3 +2377,53 @@ fn curves_follow_their_edge_path_without_relaxation() {
     let lo = min_angle_deg(m);
     assert!(lo >= 25.0, "smallest angle {lo}°");
 }
+
+#[test]
+fn network_edges_that_cut_through_the_shape_are_not_followed() {
+    // A closed curve of three network vertices on the unit sphere's equator, 120° apart: its
+    // straight edges run through the ball, 0.5 from the surface at their middles, 5 L at
+    // L = 0.1 (a network made at a scale far above the target). The remesh follows the
+    // curve's path over the sphere's edges instead, and stays on the sphere. Followed, the
+    // chords put the feature vertices inside the ball.
+    let sphere = shapes::sphere(1.0, 4).unwrap();
+    let vertices: Vec<FcnVertex> = (0..3)
+        .map(|k| {
+            let t = k as f64 * 2.0 * std::f64::consts::PI / 3.0;
+            FcnVertex {
+                position: [t.cos(), t.sin(), 0.0],
+                location: SurfacePoint::Free,
+                strength: 1.0,
+            }
+        })
+        .collect();
+    let net = FeatureCurveNetwork {
+        vertices,
+        curves: vec![FeatureCurve {
+            vertices: vec![0, 1, 2],
+            closed: true,
+            label: CurveLabel::Other,
+        }],
+    };
+    let l = 0.1;
+    let params = IsotropicParams {
+        sharp_edges: false,
+        ..abs(l)
+    };
+    let out = isotropic(&sphere, Some(&net), &params, Par::Rayon).unwrap();
+    let m = &out.mesh;
+    assert_manifold(m);
+    let inside = m
+        .positions
+        .iter()
+        .map(|&p| 1.0 - vec3::norm(p))
+        .fold(0.0, f64::max);
+    assert!(inside < 0.05 * l, "a vertex {inside} inside the sphere");
+    let curve = out.report.num("feature_edges_out").unwrap();
+    let equator = 2.0 * std::f64::consts::PI;
+    assert!(
+        curve >= equator / (4.0 / 3.0 * l) && curve <= 1.6 * equator / l,
+        "{curve} curve edges along an equator of {equator} at L = {l}"
+    );
+    let lo = min_angle_deg(m);
+    assert!(lo >= 25.0, "smallest angle {lo}°");
+}
