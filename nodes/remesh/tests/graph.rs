@@ -129,3 +129,65 @@ fn relaxation_names_are_checked_when_the_graph_loads() {
     assert!(d.message.contains("Voronoi"), "{d:?}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Ridges of `data/cgal_fandisk.off` (`curvature.polynomial` with `degree`, `ridges.trace` at
+/// min_strength 0.5) conformed at 0.5 % and remeshed with `remesh` (the parameters of
+/// `remesh.isotropic`, RON): the quality report of the remesh. The pipeline of the fuzz runs
+/// (`bench/fuzz/run.py`).
+fn fandisk_ridges_remeshed(name: &str, degree: u32, remesh: &str) -> serde_json::Value {
+    let out = std::env::temp_dir().join(format!("crestflow-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&out).unwrap();
+    let graph = out.join("g.ron");
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let mesh = root.join("data/cgal_fandisk.off");
+    let text = format!(
+        r#"Graph(params: {{"mesh": "{}", "out": "out"}}, nodes: {{
+ "load": (kind: "io.load_mesh", params: (path: "$mesh")),
+ "curv": (kind: "curvature.polynomial", params: (rings: 2, degree: {degree}),
+          inputs: {{"mesh": "load.mesh"}}),
+ "ridges": (kind: "ridges.trace", params: (min_strength: 0.5),
+            inputs: {{"mesh": "load.mesh", "curvature": "curv.field"}}),
+ "conform": (kind: "scale.conform", params: (scale: 0.005),
+             inputs: {{"curves": "ridges.network", "mesh": "load.mesh"}}),
+ "remesh": (kind: "remesh.isotropic", params: ({remesh}),
+            inputs: {{"mesh": "load.mesh", "curves": "conform.network"}}),
+ "quality": (kind: "eval.mesh_quality", inputs: {{"mesh": "remesh.mesh"}}),
+ "save": (kind: "io.save_report", params: (path: "$out/quality.json"),
+          inputs: {{"report": "quality.report"}}),
+}})"#,
+        mesh.display()
+    );
+    std::fs::write(&graph, text).unwrap();
+    let mut reg = Registry::new();
+    crestflow_nodes_io::register(&mut reg);
+    crestflow_nodes_curvature::register(&mut reg);
+    crestflow_nodes_ridges::register(&mut reg);
+    crestflow_nodes_eval::register(&mut reg);
+    crestflow_nodes_remesh::register(&mut reg);
+    crestflow_nodes_scale::register(&mut reg);
+    let params = vec![("out".to_string(), out.display().to_string())];
+    let plan = load_file(&graph, &reg, &params).expect("graph loads");
+    let opts = RunOptions {
+        use_cache: false,
+        cache_dir: Some(out.join("cache")),
+        ..Default::default()
+    };
+    run(&plan, &opts).expect("graph runs");
+    read(&out, "quality.json")
+}
+
+#[test]
+fn chain_vertices_between_two_corners_at_one_end_stay_off_them() {
+    // A target of twice the diagonal, a corner wherever a feature turns by more than 1° and
+    // no relaxation: nearly every feature vertex is a corner, and a chain vertex is left
+    // between two corners that both stand for the same end of its chain (one of them is not
+    // an end of it). The final slide to the middle between them put it on top of one: an
+    // edge of length 0 and two triangles of 0° (a fuzz run).
+    let q = fandisk_ridges_remeshed(
+        "two-corners",
+        4,
+        "target: 2.0, corner_angle_deg: 1.0, smoothing_steps: 0, boundary_tolerance: 0.0",
+    );
+    let lo = q["min_angle_deg"].as_f64().unwrap();
+    assert!(lo > 1.0, "smallest angle {lo}°");
+}

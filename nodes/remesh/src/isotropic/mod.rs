@@ -127,9 +127,11 @@
 //! junction whose curves reach the input's edges at two vertices); other feature
 //! vertices slide along their chain (the arc-length parametrised polyline of input feature
 //! edges, [`crate::chain`]; for a chain of curve edges, the network's own polyline, onto which
-//! the relaxation moves its vertices, or the edge path without relaxation) to the middle of their two chain neighbours, or, where that would cut
-//! a bend, onto the sharpest bend between them; split feature edges
-//! get their new vertex at the middle of their stretch of chain. Every output feature edge
+//! the relaxation moves its vertices, or the edge path without relaxation; a network edge
+//! that strays more than L from the surface gives way to its edge path) to the middle of
+//! their two chain neighbours, or, where that would cut a bend, onto the sharpest bend
+//! between them (not where both neighbours stand for one end of the chain); split feature
+//! edges get their new vertex at the middle of their stretch of chain. Every output feature edge
 //! stays within `feature_tolerance` · L of the stretch of chain it replaces: a slide or a
 //! collapse that would cut a bend of the chain is not made, so the bends of a feature (and
 //! its input vertices there) are kept exactly while straight stretches are resampled freely.
@@ -1266,7 +1268,7 @@ pub struct IsotropicNode;
 impl NodeKind for IsotropicNode {
     type Params = IsotropicParams;
     const KIND: &'static str = "remesh.isotropic";
-    const VERSION: u32 = 43;
+    const VERSION: u32 = 44;
     const DOC: &'static str = "Isotropic remeshing at a target edge length (Botsch & Kobbelt \
         2004, thesis §5.1.1): splits > 4/3 L, collapses < 4/5 L, valence-improving flips, \
         tangential relaxation (relaxation: Centroids, or Lloyd for Voronoi-cell centroids and \

@@ -186,6 +186,11 @@ impl State<'_> {
             // The stretch from x through v to y (on a short loop, maybe the longer way round),
             // and the ends of its two halves at a parameter t inside it.
             let (lo, hi) = ch.interval_through(sx, sy, s);
+            // Both neighbours at one parameter (a corner that is not an end of this chain
+            // stands for the nearer end): the middle would put the vertex on top of one.
+            if !(hi > lo) {
+                continue;
+            }
             let (plo, phi) = if lo == sx { (px, py) } else { (py, px) };
             let unwrap = |t: f64| if t < lo { t + ch.total() } else { t };
             let ok = |t: f64| {
