@@ -2,13 +2,26 @@
 //! ridges constrain the remeshing, and the quality report has the figures the issue asks for.
 //! Also pipelines that fuzz runs (`bench/fuzz/run.py`) found to break the remesh.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use crestflow_flow::{load_file, run, Registry, RunOptions};
 
 /// Runs shipped graph `name` with every node family it may use registered, `out` set to a
 /// fresh temporary folder and the given parameters; returns that folder.
 fn run_shipped(name: &str, sets: &[(&str, &str)]) -> PathBuf {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let out = std::env::temp_dir().join(format!(
+        "crestflow-{}-{}",
+        name.trim_end_matches(".ron"),
+        std::process::id()
+    ));
+    run_graph(&root.join("graphs").join(name), &out, sets);
+    out
+}
+
+/// Runs the graph file `graph` with every node family it may use registered, its `out`
+/// parameter set to `out` and the given parameters, without the cache.
+fn run_graph(graph: &Path, out: &Path, sets: &[(&str, &str)]) {
     let mut reg = Registry::new();
     crestflow_nodes_io::register(&mut reg);
     crestflow_nodes_curvature::register(&mut reg);
@@ -17,27 +30,21 @@ fn run_shipped(name: &str, sets: &[(&str, &str)]) -> PathBuf {
     crestflow_nodes_eval::register(&mut reg);
     crestflow_nodes_remesh::register(&mut reg);
     crestflow_nodes_scale::register(&mut reg);
-    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..");
-    let out = std::env::temp_dir().join(format!(
-        "crestflow-{}-{}",
-        name.trim_end_matches(".ron"),
-        std::process::id()
-    ));
     let mut params = vec![("out".to_string(), out.display().to_string())];
     params.extend(sets.iter().map(|(k, v)| (k.to_string(), v.to_string())));
-    let plan = load_file(&root.join("graphs").join(name), &reg, &params)
-        .unwrap_or_else(|e| panic!("{name} does not load: {e:?}"));
+    let name = graph.display();
+    let plan =
+        load_file(graph, &reg, &params).unwrap_or_else(|e| panic!("{name} does not load: {e:?}"));
     let opts = RunOptions {
         use_cache: false,
         cache_dir: Some(out.join("cache")),
         ..Default::default()
     };
     run(&plan, &opts).unwrap_or_else(|e| panic!("{name} does not run: {e:?}"));
-    out
 }
 
 /// Report `name` written by a graph into `out`.
-fn read(out: &std::path::Path, name: &str) -> serde_json::Value {
+fn read(out: &Path, name: &str) -> serde_json::Value {
     let text = std::fs::read_to_string(out.join(name)).expect("report written");
     serde_json::from_str(&text).expect("report is JSON")
 }
@@ -158,21 +165,7 @@ fn fandisk_ridges_remeshed(name: &str, remesh: &str) -> serde_json::Value {
         mesh.display()
     );
     std::fs::write(&graph, text).unwrap();
-    let mut reg = Registry::new();
-    crestflow_nodes_io::register(&mut reg);
-    crestflow_nodes_curvature::register(&mut reg);
-    crestflow_nodes_ridges::register(&mut reg);
-    crestflow_nodes_eval::register(&mut reg);
-    crestflow_nodes_remesh::register(&mut reg);
-    crestflow_nodes_scale::register(&mut reg);
-    let params = vec![("out".to_string(), out.display().to_string())];
-    let plan = load_file(&graph, &reg, &params).expect("graph loads");
-    let opts = RunOptions {
-        use_cache: false,
-        cache_dir: Some(out.join("cache")),
-        ..Default::default()
-    };
-    run(&plan, &opts).expect("graph runs");
+    run_graph(&graph, &out, &[]);
     let q = read(&out, "quality.json");
     let _ = std::fs::remove_dir_all(&out);
     q

@@ -401,6 +401,30 @@ fn dist_to_segment(p: V3, a: V3, b: V3) -> f64 {
     vec3::dist(p, vec3::add(a, vec3::scale(d, t)))
 }
 
+/// A network of one open curve: the segment from `a` to `b` in `k` equal edges, its ends
+/// placed on the mesh vertices `ends`, its inner vertices free.
+fn straight_curve(a: V3, b: V3, k: usize, ends: [u32; 2]) -> FeatureCurveNetwork {
+    let vertices = (0..=k)
+        .map(|i| FcnVertex {
+            position: vec3::lerp(a, b, i as f64 / k as f64),
+            location: match i {
+                0 => SurfacePoint::Vertex(ends[0]),
+                _ if i == k => SurfacePoint::Vertex(ends[1]),
+                _ => SurfacePoint::Free,
+            },
+            strength: 1.0,
+        })
+        .collect();
+    FeatureCurveNetwork {
+        vertices,
+        curves: vec![FeatureCurve {
+            vertices: (0..=k as u32).collect(),
+            closed: false,
+            label: CurveLabel::Other,
+        }],
+    }
+}
+
 #[test]
 fn straight_curve_across_the_edges_stays_straight() {
     // A flat 20 × 20 grid whose squares are split along (1, 1); a straight curve of slope 1/2
@@ -414,30 +438,7 @@ fn straight_curve_across_the_edges_stays_straight() {
     let flat = TriMesh::new(flat.positions, flat.triangles);
     let id = |i: usize, j: usize| (j * 21 + i) as u32;
     let (a, b) = ([0.1, 0.25, 0.0], [0.9, 0.65, 0.0]);
-    let k = 9;
-    let vertices: Vec<FcnVertex> = (0..=k)
-        .map(|i| {
-            let position = vec3::lerp(a, b, i as f64 / k as f64);
-            let location = match i {
-                0 => SurfacePoint::Vertex(id(2, 5)),
-                _ if i == k => SurfacePoint::Vertex(id(18, 13)),
-                _ => SurfacePoint::Free,
-            };
-            FcnVertex {
-                position,
-                location,
-                strength: 1.0,
-            }
-        })
-        .collect();
-    let net = FeatureCurveNetwork {
-        vertices,
-        curves: vec![FeatureCurve {
-            vertices: (0..=k as u32).collect(),
-            closed: false,
-            label: CurveLabel::Other,
-        }],
-    };
+    let net = straight_curve(a, b, 9, [id(2, 5), id(18, 13)]);
     let l = 0.1;
     let params = IsotropicParams {
         sharp_edges: false,
@@ -2329,27 +2330,7 @@ fn curves_follow_their_edge_path_without_relaxation() {
     // vertices and valences up to 1084).
     let flat = grid(5, 5, |i, j| [i as f64 / 5.0, j as f64 / 5.0, 0.0]);
     let id = |i: usize, j: usize| (j * 6 + i) as u32;
-    let (a, b) = ([0.0, 0.2, 0.0], [1.0, 0.6, 0.0]);
-    let k = 10;
-    let vertices: Vec<FcnVertex> = (0..=k)
-        .map(|i| FcnVertex {
-            position: vec3::lerp(a, b, i as f64 / k as f64),
-            location: match i {
-                0 => SurfacePoint::Vertex(id(0, 1)),
-                _ if i == k => SurfacePoint::Vertex(id(5, 3)),
-                _ => SurfacePoint::Free,
-            },
-            strength: 1.0,
-        })
-        .collect();
-    let net = FeatureCurveNetwork {
-        vertices,
-        curves: vec![FeatureCurve {
-            vertices: (0..=k as u32).collect(),
-            closed: false,
-            label: CurveLabel::Other,
-        }],
-    };
+    let net = straight_curve([0.0, 0.2, 0.0], [1.0, 0.6, 0.0], 10, [id(0, 1), id(5, 3)]);
     let l = 0.05;
     let params = IsotropicParams {
         sharp_edges: false,
